@@ -1,0 +1,1 @@
+"""Demonstrations: random spline scoops run in simulation, recorded ones imported, one file format."""

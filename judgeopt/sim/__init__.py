@@ -1,0 +1,1 @@
+"""Ground truth: the PyBullet scooping scene, its hybrid controller and plan replay."""

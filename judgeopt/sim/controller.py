@@ -1,0 +1,127 @@
+"""Hybrid position/force control in operational space (paper Fig. 5, Table 1).
+
+Acceleration-based form: position control in x, y and the orientation, force control in z
+through the selection matrix S, then joint torques tau = M J^-1 xdd_ref + h(q, qd), with the
+joint mass matrix M, the Cartesian mass matrix Lambda and the bias h from Pinocchio at every
+control step, on the same URDF PyBullet runs. Velocities come from pseudo-differentiators
+(first-order, cutoff g), the measured force through the same filter, as on a real arm.
+
+    xdd_ref = S (Kp e + Kv de) + (I - S) Kf Lambda^-1 (F_cmd - F_res) + Lambda^-1 F_cmd
+
+F_cmd is the commanded wrench on the environment along the force-controlled axes (pressing
+force f_z down on the plate); the last term is its feed-forward, so that at rest in contact
+the blade presses with the commanded force and the force loop only corrects errors.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+
+@dataclass(frozen=True)
+class ControllerConfig:
+    """Gains of paper Table 1 (simulation). Units: Kp 1/s^2, Kv 1/s, Kf Lambda^-1 (m/s^2)/N."""
+
+    kp: tuple[float, ...] = (1000.0, 1000.0, 1000.0, 500.0, 500.0, 500.0)
+    kv: tuple[float, ...] = (300.0, 300.0, 300.0, 300.0, 300.0, 300.0)
+    kf_lambda_inv: tuple[float, ...] = (1.0, 1.0, 1.0, 1.0, 1.0, 1.0)
+    selection: tuple[float, ...] = (1.0, 1.0, 0.1, 1.0, 1.0, 1.0)
+    cutoff_hz: float = 10.0
+    dt: float = 1e-3
+    torque_limit: tuple[float, ...] = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)  # UR5 joint limits
+
+
+@dataclass
+class TaskCommand:
+    """One control step's command: TCP position and rotation, their velocity, pressing force."""
+
+    position: np.ndarray
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    velocity: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    force_z: float = 0.0
+    selection: np.ndarray | None = None  # overrides the configured S (e.g. pure position control to lift)
+
+
+class HybridController:
+    """Keeps the filter states between steps; call reset() with the initial joint angles."""
+
+    def __init__(self, urdf_path: str, payload_weight: float, tcp_frame: str = "tcp",
+                 config: ControllerConfig | None = None):
+        self.config = cfg = config or ControllerConfig()
+        self.model = pin.buildModelFromUrdf(str(urdf_path))
+        self.data = self.model.createData()
+        self.tcp = self.model.getFrameId(tcp_frame)
+        self.kp, self.kv = np.array(cfg.kp), np.array(cfg.kv)
+        self.kf = np.array(cfg.kf_lambda_inv)
+        self.S = np.array(cfg.selection)
+        self.tau_max = np.array(cfg.torque_limit)
+        self.payload_weight = payload_weight  # N, what the sensor carries at rest
+        w = 2 * math.pi * cfg.cutoff_hz
+        self._alpha = math.exp(-w * cfg.dt)  # discrete first-order filter pole
+        self._gain = (1 - self._alpha) / cfg.dt
+        self.reset(np.zeros(self.model.nq))
+
+    def reset(self, q: np.ndarray) -> None:
+        self.q_prev = np.array(q, dtype=float)
+        self.qd_est = np.zeros(self.model.nv)
+        self.f_est = np.zeros(3)
+        self.position = np.zeros(3)
+        self.velocity = np.zeros(6)
+
+    def step(self, q: np.ndarray, sensor_force: np.ndarray, cmd: TaskCommand) -> np.ndarray:
+        """One control step: filter the measurements, then joint torques for `cmd`.
+
+        `sensor_force` is the sensor's force reading in the spatula frame; the spatula's
+        weight (`payload_weight`) is removed after rotating it to the world frame, so
+        `f_est` is the contact force on the tool, z > 0 when pressing on the plate.
+        """
+        model, data = self.model, self.data
+        a = self._alpha
+        self.qd_est = v = a * self.qd_est + self._gain * (q - self.q_prev)
+        self.q_prev = q
+        pin.computeJointJacobians(model, data, q)  # also the forward kinematics
+        oMf = pin.updateFramePlacement(model, data, self.tcp)
+        J = pin.getFrameJacobian(model, data, self.tcp, pin.LOCAL_WORLD_ALIGNED)
+        R = oMf.rotation
+        contact = -(R @ sensor_force)
+        contact[2] += self.payload_weight
+        self.f_est = a * self.f_est + (1 - a) * contact
+        self.position = oMf.translation.copy()
+        self.velocity = J @ v
+
+        S = self.S if cmd.selection is None else cmd.selection
+        xdd = S * (self.kp * np.concatenate([cmd.position - self.position, pin.log3(cmd.rotation @ R.T)])
+                   + self.kv * (cmd.velocity - self.velocity))
+        if S[2] < 1.0:
+            # force control in z: the wrench on the environment is F_cmd = (0, 0, -f_z); its
+            # error against the sensed reaction, plus the feed-forward Lambda^-1 F_cmd, where
+            # Lambda^-1 F_cmd = J M^-1 J^T F_cmd uses M's Cholesky factors (Pinocchio)
+            pin.crba(model, data, q)
+            pin.cholesky.decompose(model, data)
+            lam_inv_z = J @ pin.cholesky.solve(model, data, J[2].copy())
+            xdd[2] += (1.0 - S[2]) * self.kf[2] * (self.f_est[2] - cmd.force_z)
+            xdd -= lam_inv_z * cmd.force_z
+        # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
+        tau = pin.rnea(model, data, q, v, np.linalg.solve(J, xdd))
+        return np.clip(tau, -self.tau_max, self.tau_max)
+
+
+def solve_ik(model: pin.Model, frame: int, target: pin.SE3, q0: np.ndarray, iters: int = 200) -> np.ndarray:
+    """Damped least-squares IK for the TCP pose (used once per rollout to place the arm)."""
+    data = model.createData()
+    q = np.array(q0, dtype=float)
+    for _ in range(iters):
+        pin.framesForwardKinematics(model, data, q)
+        err = pin.log6(data.oMf[frame].actInv(target)).vector
+        if np.linalg.norm(err) < 1e-10:
+            break
+        J = pin.computeFrameJacobian(model, data, q, frame, pin.LOCAL)
+        q = q + J.T @ np.linalg.solve(J @ J.T + 1e-8 * np.eye(6), err)
+    pin.framesForwardKinematics(model, data, q)
+    if np.linalg.norm(pin.log6(data.oMf[frame].actInv(target)).vector) > 1e-6:
+        raise ValueError(f"the arm cannot reach the TCP pose {target.translation.round(4).tolist()} (IK did not converge)")
+    return q

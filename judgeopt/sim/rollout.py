@@ -1,0 +1,189 @@
+"""Replay a plan on the simulated arm and judge the outcome from the object's final state.
+
+Phases of one rollout (1 ms steps):
+1. settle: the arm holds the plan's start position while the pressing force ramps from 0
+   to the plan's first value (the blade starts touching the plate);
+2. motion: the plan, interpolated to 1 ms, under hybrid position/force control;
+3. lift: pure position control; the spatula rises `lift_height` and tilts its blade back
+   by `lift_tilt_deg` (as a cook levels the spatula), then holds still.
+
+Success criterion: at the end of the hold the object's centre has risen at least
+`success_rise` above its start height, it touches the blade and it does not touch the
+plate, i.e. it came up with the spatula. A pushed object stays on the plate (no rise), one
+that was flicked over the blade falls back: both fail.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+import pybullet as pb
+
+from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
+from judgeopt.sim.scene import Scene, SceneConfig, check_environment
+from judgeopt.trajectory import Plan, PlanError
+
+#: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
+HOME_POSTURE = np.array([-0.816, -1.778, 2.418, -2.211, -1.571, -2.387])
+
+#: reachable range of the commanded TCP y along the scooping line (m), and pressing force (N)
+Y_RANGE = (-0.25, 0.45)
+F_RANGE = (0.0, 60.0)
+
+
+@dataclass(frozen=True)
+class RolloutConfig:
+    settle_time: float = 0.1
+    lift_height: float = 0.05
+    lift_tilt_deg: float = 12.0
+    lift_time: float = 0.3
+    hold_time: float = 0.2
+    success_rise: float = 0.025
+
+
+@dataclass
+class RolloutResult:
+    """Responses at the plan's sample times (same channels as the plan) and the outcome."""
+
+    y: np.ndarray
+    ydot: np.ndarray
+    f: np.ndarray
+    success: bool
+    object_rise: float
+    object_shift: float  # object's y displacement at the end of the motion phase
+    info: dict = field(default_factory=dict)
+
+    def as_array(self) -> np.ndarray:
+        return np.stack([self.y, self.ydot, self.f], axis=1)
+
+
+def check_plan(plan: Plan) -> None:
+    """Reject commands the arm cannot follow, naming the value and the allowed range."""
+    for name, (lo, hi), values in (("y", Y_RANGE, plan.y), ("f", F_RANGE, plan.f)):
+        bad = np.flatnonzero((values < lo) | (values > hi))
+        if bad.size:
+            k = int(bad[0])
+            raise PlanError(f"commanded {name} = {values[k]:.4g} at sample {k} is outside the reachable range [{lo}, {hi}]")
+
+
+class Simulator:
+    """A scene, its controller and the rollout procedure; one per process (PyBullet client)."""
+
+    def __init__(self, scene: SceneConfig | None = None, controller: ControllerConfig | None = None,
+                 rollout: RolloutConfig | None = None):
+        self.scene = Scene(scene)
+        self.rollout_config = rollout or RolloutConfig()
+        g = self.scene.config.spatula
+        self.controller = HybridController(self.scene.urdf_path, payload_weight=(g.handle_mass + g.blade_mass) * 9.81,
+                                           config=controller)
+        self.z_contact = g.tcp_height_on_plate()
+        self._ik_cache: dict[float, np.ndarray] = {}
+
+    # -- arm placement -----------------------------------------------------------------
+    def home_joints(self, y0: float) -> np.ndarray:
+        key = round(float(y0), 9)
+        if key not in self._ik_cache:
+            target = pin.SE3(np.eye(3), np.array([self.scene.config.x_home, y0, self.z_contact]))
+            q = solve_ik(self.controller.model, self.controller.tcp, target, HOME_POSTURE)
+            self._ik_cache[key] = (q + np.pi) % (2 * np.pi) - np.pi
+        return self._ik_cache[key]
+
+    def _reset(self, q0: np.ndarray, y_obj: float, mu: float) -> None:
+        sc = self.scene
+        for j, qi in zip(sc.arm_joints, q0):
+            pb.resetJointState(sc.robot, j, qi, 0.0, physicsClientId=sc.client)
+        sc.set_mu(mu)
+        sc.place_object(y_obj)
+        self.controller.reset(q0)
+
+    def _read(self) -> tuple[np.ndarray, np.ndarray]:
+        sc = self.scene
+        states = pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)
+        q = np.array([s[0] for s in states])
+        ft = pb.getJointState(sc.robot, sc.ft_joint, physicsClientId=sc.client)[2]
+        return q, np.array(ft[:3])
+
+    def _apply(self, tau: np.ndarray) -> None:
+        sc = self.scene
+        pb.setJointMotorControlArray(sc.robot, sc.arm_joints, pb.TORQUE_CONTROL, forces=tau, physicsClientId=sc.client)
+        pb.stepSimulation(physicsClientId=sc.client)
+
+    # -- the rollout -------------------------------------------------------------------
+    def run(self, plan: Plan, y_obj: float, mu: float, record: int = 0) -> RolloutResult:
+        """Replay `plan` in environment (y_obj, mu). `record` > 0 keeps every record-th
+        step's scene state in info["frames"] for rendering."""
+        check_environment(y_obj, mu)
+        check_plan(plan)
+        cfg, ctl, sc = self.rollout_config, self.controller, self.scene
+        step = sc.config.timestep
+        q0 = self.home_joints(float(plan.y[0]))
+        self._reset(q0, y_obj, mu)
+        obj_start, _ = sc.object_pose()
+        x_home, zc = sc.config.x_home, self.z_contact
+        cmd = TaskCommand(position=np.array([x_home, plan.y[0], zc]))
+        frames: list = []
+        k_total = 0
+
+        def advance(c: TaskCommand) -> None:
+            nonlocal k_total
+            q, ft = self._read()
+            self._apply(ctl.step(q, ft, c))
+            k_total += 1
+            if record and k_total % record == 0:
+                frames.append(self._snapshot())
+
+        n_settle = int(round(cfg.settle_time / step))
+        for i in range(n_settle):
+            cmd.force_z = plan.f[0] * (i + 1) / n_settle
+            advance(cmd)
+
+        t, y_c, yd_c, f_c = plan.resample(step)
+        every = int(round(plan.dt / step))
+        resp = np.zeros((plan.horizon + 1, 3))
+        vel = np.zeros(6)
+        for i in range(len(t)):
+            cmd.position[1] = y_c[i]
+            vel[1] = yd_c[i]
+            cmd.velocity = vel
+            cmd.force_z = f_c[i]
+            if i % every == 0:  # sample the response before the step that starts at t_k
+                resp[i // every] = (ctl.position[1], ctl.velocity[1], ctl.f_est[2])
+            advance(cmd)
+        obj_after_motion, _ = sc.object_pose()
+
+        # lift: pure position control, rise and tilt the blade back
+        full = np.ones(6)
+        n_lift = int(round(cfg.lift_time / step))
+        n_hold = int(round(cfg.hold_time / step))
+        z0 = ctl.position[2]
+        tilt = math.radians(cfg.lift_tilt_deg)
+        cmd = TaskCommand(position=np.array([x_home, plan.y[-1], z0]), selection=full)
+        for i in range(n_lift + n_hold):
+            s = min(1.0, (i + 1) / n_lift)
+            blend = 0.5 - 0.5 * math.cos(math.pi * s)
+            cmd.position[2] = z0 + cfg.lift_height * blend
+            cmd.rotation = pin.rpy.rpyToMatrix(tilt * blend, 0.0, 0.0)
+            advance(cmd)
+
+        obj_end, _ = sc.object_pose()
+        rise = float(obj_end[2] - obj_start[2])
+        on_blade = sc.contacts(sc.blade_top) > 0
+        on_plate = sc.touches_plate()
+        success = rise >= cfg.success_rise and on_blade and not on_plate
+        info = {"on_blade": on_blade, "on_plate": on_plate, "object_end": obj_end.tolist()}
+        if record:
+            info["frames"] = frames
+        return RolloutResult(resp[:, 0], resp[:, 1], resp[:, 2], bool(success), rise,
+                             float(obj_after_motion[1] - obj_start[1]), info)
+
+    def _snapshot(self) -> dict:
+        sc = self.scene
+        q = [s[0] for s in pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)]
+        p, o = pb.getBasePositionAndOrientation(sc.obj, physicsClientId=sc.client)
+        return {"q": q, "obj_pos": p, "obj_orn": o}
+
+    def close(self) -> None:
+        self.scene.close()
