@@ -22,15 +22,25 @@ class RandomCommandConfig:
     horizon: int = DEFAULT_HORIZON
     q0: float = -0.03  # start position (m), paper Table 3
     knots: int = 4  # random points between start and end
-    motion_time: tuple[float, float] = (0.45, 1.4)  # s, time to reach the end point
-    end_offset: tuple[float, float] = (-0.08, 0.08)  # m, end position relative to y_obj
+    mean_speed: tuple[float, float] = (0.22, 0.7)  # m/s, distance over time to reach the end
+    end_offset: tuple[float, float] = (-0.12, 0.10)  # m, end position relative to y_obj
     y_limits: tuple[float, float] = (-0.2, 0.4)  # m, paper Table 3
     force: tuple[float, float] = (0.0, 30.0)  # N
+    max_speed: float = 1.5  # m/s: splines whose peak exceeds it are redrawn (a UR5 tool's range)
 
 
 def random_command(rng: np.random.Generator, y_obj: float, cfg: RandomCommandConfig = RandomCommandConfig()) -> Plan:
-    t_end = rng.uniform(*cfg.motion_time)
+    """One random command for an object at y_obj; deterministic given the generator's state."""
+    for _ in range(1000):
+        plan = _draw(rng, y_obj, cfg)
+        if np.abs(plan.ydot).max() <= cfg.max_speed:
+            return plan
+    raise RuntimeError(f"no random command under {cfg.max_speed} m/s in 1000 draws: widen mean_speed or max_speed")
+
+
+def _draw(rng: np.random.Generator, y_obj: float, cfg: RandomCommandConfig) -> Plan:
     y_end = float(np.clip(y_obj + rng.uniform(*cfg.end_offset), cfg.q0 + 0.05, cfg.y_limits[1]))
+    t_end = float(np.clip((y_end - cfg.q0) / rng.uniform(*cfg.mean_speed), 0.3, (cfg.horizon - 1) * cfg.dt))
     tk = np.concatenate([[0.0], np.sort(rng.uniform(0.1, 0.9, cfg.knots)) * t_end, [t_end]])
     yk = np.concatenate([[cfg.q0], np.sort(rng.uniform(cfg.q0, y_end, cfg.knots)), [y_end]])
     fk = rng.uniform(*cfg.force, cfg.knots + 2)

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
+from scipy.linalg.lapack import dgesv  # a 6x6 solve without numpy.linalg's per-call checks
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,7 @@ class HybridController:
         self.S = np.array(cfg.selection)
         self.tau_max = np.array(cfg.torque_limit)
         self.payload_weight = payload_weight  # N, what the sensor carries at rest
+        self._err = np.zeros(6)
         w = 2 * math.pi * cfg.cutoff_hz
         self._alpha = math.exp(-w * cfg.dt)  # discrete first-order filter pole
         self._gain = (1 - self._alpha) / cfg.dt
@@ -72,12 +74,13 @@ class HybridController:
         self.position = np.zeros(3)
         self.velocity = np.zeros(6)
 
-    def step(self, q: np.ndarray, sensor_force: np.ndarray, cmd: TaskCommand) -> np.ndarray:
+    def step(self, q: np.ndarray, sensor_force: np.ndarray | None, cmd: TaskCommand) -> np.ndarray:
         """One control step: filter the measurements, then joint torques for `cmd`.
 
         `sensor_force` is the sensor's force reading in the spatula frame; the spatula's
         weight (`payload_weight`) is removed after rotating it to the world frame, so
-        `f_est` is the contact force on the tool, z > 0 when pressing on the plate.
+        `f_est` is the contact force on the tool, z > 0 when pressing on the plate. None means
+        no reading yet (the first step after a reset): the force filter keeps its state.
         """
         model, data = self.model, self.data
         a = self._alpha
@@ -87,15 +90,18 @@ class HybridController:
         oMf = pin.updateFramePlacement(model, data, self.tcp)
         J = pin.getFrameJacobian(model, data, self.tcp, pin.LOCAL_WORLD_ALIGNED)
         R = oMf.rotation
-        contact = -(R @ sensor_force)
-        contact[2] += self.payload_weight
-        self.f_est = a * self.f_est + (1 - a) * contact
+        if sensor_force is not None:
+            contact = -(R @ sensor_force)
+            contact[2] += self.payload_weight
+            self.f_est = a * self.f_est + (1 - a) * contact
         self.position = oMf.translation.copy()
         self.velocity = J @ v
 
         S = self.S if cmd.selection is None else cmd.selection
-        xdd = S * (self.kp * np.concatenate([cmd.position - self.position, pin.log3(cmd.rotation @ R.T)])
-                   + self.kv * (cmd.velocity - self.velocity))
+        err = self._err
+        err[:3] = cmd.position - self.position
+        err[3:] = pin.log3(cmd.rotation @ R.T)
+        xdd = S * (self.kp * err + self.kv * (cmd.velocity - self.velocity))
         if S[2] < 1.0:
             # force control in z: the wrench on the environment is F_cmd = (0, 0, -f_z); its
             # error against the sensed reaction, plus the feed-forward Lambda^-1 F_cmd, where
@@ -106,8 +112,9 @@ class HybridController:
             xdd[2] += (1.0 - S[2]) * self.kf[2] * (self.f_est[2] - cmd.force_z)
             xdd -= lam_inv_z * cmd.force_z
         # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
-        tau = pin.rnea(model, data, q, v, np.linalg.solve(J, xdd))
-        return np.clip(tau, -self.tau_max, self.tau_max)
+        qdd = dgesv(J, xdd)[2]
+        tau = pin.rnea(model, data, q, v, qdd)
+        return np.minimum(np.maximum(tau, -self.tau_max), self.tau_max)
 
 
 def solve_ik(model: pin.Model, frame: int, target: pin.SE3, q0: np.ndarray, iters: int = 200) -> np.ndarray:

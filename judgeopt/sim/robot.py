@@ -142,13 +142,13 @@ def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path) -> str:
   <!-- judgeopt: 6-axis force/torque sensor joint and spatula -->
   <link name="spatula">
     <inertial><origin xyz="{h_mid[0]:.6f} {h_mid[1]:.6f} {h_mid[2]:.6f}"/>
-      <mass value="{g.handle_mass}"/>{inertia(g.handle_mass, 0.02, g.handle_length, 0.006, a)}</inertial>
+      <mass value="{g.handle_mass}"/>{inertia(g.handle_mass, 0.02, g.handle_length, 0.006, -a)}</inertial>
     <visual><origin xyz="0 0 {g.sensor_length / 2:.6f}"/><geometry><cylinder radius="0.035" length="{g.sensor_length}"/></geometry>
       <material name="sensor_mat"><color rgba="0.2 0.2 0.2 1"/></material></visual>
-    <visual><origin xyz="{h_mid[0]:.6f} {h_mid[1]:.6f} {h_mid[2]:.6f}" rpy="{a:.6f} 0 0"/>
+    <visual><origin xyz="{h_mid[0]:.6f} {h_mid[1]:.6f} {h_mid[2]:.6f}" rpy="{-a:.6f} 0 0"/>
       <geometry><box size="0.02 {g.handle_length} 0.006"/></geometry>
       <material name="handle_mat"><color rgba="0.35 0.2 0.1 1"/></material></visual>
-    <collision><origin xyz="{h_mid[0]:.6f} {h_mid[1]:.6f} {h_mid[2]:.6f}" rpy="{a:.6f} 0 0"/>
+    <collision><origin xyz="{h_mid[0]:.6f} {h_mid[1]:.6f} {h_mid[2]:.6f}" rpy="{-a:.6f} 0 0"/>
       <geometry><box size="0.02 {g.handle_length} 0.006"/></geometry></collision>
   </link>
   <joint name="ft_sensor_joint" type="fixed"><parent link="tool0"/><child link="spatula"/>

@@ -8,9 +8,11 @@ Phases of one rollout (1 ms steps):
    by `lift_tilt_deg` (as a cook levels the spatula), then holds still.
 
 Success criterion: at the end of the hold the object's centre has risen at least
-`success_rise` above its start height, it touches the blade and it does not touch the
-plate, i.e. it came up with the spatula. A pushed object stays on the plate (no rise), one
-that was flicked over the blade falls back: both fail.
+`success_rise` above its start height, it touches the blade and not the plate, and its
+centre lies within `max_overhang` of the blade centre along the blade, i.e. it came up with
+the spatula resting on the blade, not hanging off its edge. A pushed object stays on the
+plate (no rise), one flicked over the blade falls back, one caught on the edge overhangs:
+all fail.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
-import pybullet as pb
+from judgeopt.sim._quiet import pb
 
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
 from judgeopt.sim.scene import Scene, SceneConfig, check_environment
@@ -39,9 +41,10 @@ class RolloutConfig:
     settle_time: float = 0.1
     lift_height: float = 0.05
     lift_tilt_deg: float = 12.0
-    lift_time: float = 0.3
-    hold_time: float = 0.2
+    lift_time: float = 0.25
+    hold_time: float = 0.15
     success_rise: float = 0.025
+    max_overhang: float = 0.035  # the object's centre at most this far from the blade centre
 
 
 @dataclass
@@ -93,16 +96,21 @@ class Simulator:
 
     def _reset(self, q0: np.ndarray, y_obj: float, mu: float) -> None:
         sc = self.scene
+        sc.restore()
         for j, qi in zip(sc.arm_joints, q0):
             pb.resetJointState(sc.robot, j, qi, 0.0, physicsClientId=sc.client)
         sc.set_mu(mu)
         sc.place_object(y_obj)
         self.controller.reset(q0)
+        self._sensor_valid = False  # PyBullet reports the last step's joint reaction until the next step
 
-    def _read(self) -> tuple[np.ndarray, np.ndarray]:
+    def _read(self) -> tuple[np.ndarray, np.ndarray | None]:
         sc = self.scene
         states = pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)
         q = np.array([s[0] for s in states])
+        if not self._sensor_valid:
+            self._sensor_valid = True
+            return q, None
         ft = pb.getJointState(sc.robot, sc.ft_joint, physicsClientId=sc.client)[2]
         return q, np.array(ft[:3])
 
@@ -172,8 +180,9 @@ class Simulator:
         rise = float(obj_end[2] - obj_start[2])
         on_blade = sc.contacts(sc.blade_top) > 0
         on_plate = sc.touches_plate()
-        success = rise >= cfg.success_rise and on_blade and not on_plate
-        info = {"on_blade": on_blade, "on_plate": on_plate, "object_end": obj_end.tolist()}
+        offset = float(np.linalg.norm(obj_end[:2] - ctl.position[:2]))
+        success = rise >= cfg.success_rise and on_blade and not on_plate and offset <= cfg.max_overhang
+        info = {"on_blade": on_blade, "on_plate": on_plate, "object_end": obj_end.tolist(), "offset_from_blade": offset}
         if record:
             info["frames"] = frames
         return RolloutResult(resp[:, 0], resp[:, 1], resp[:, 2], bool(success), rise,

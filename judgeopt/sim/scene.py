@@ -13,7 +13,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-import pybullet as pb
+from judgeopt.sim._quiet import c_stdout_to_stderr, pb
 
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 
@@ -94,7 +94,8 @@ class Scene:
             physicsClientId=c,
         )
         self.urdf_path = robot_urdf(cfg.spatula)
-        self.robot = pb.loadURDF(str(self.urdf_path), useFixedBase=True, physicsClientId=c)
+        with c_stdout_to_stderr():  # URDF warnings about the massless root link
+            self.robot = pb.loadURDF(str(self.urdf_path), useFixedBase=True, physicsClientId=c)
         names = {pb.getJointInfo(self.robot, j, physicsClientId=c)[1].decode(): j for j in range(pb.getNumJoints(self.robot, physicsClientId=c))}
         links = {pb.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j for j in names.values()}
         self.arm_joints = [names[n] for n in ARM_JOINTS]
@@ -108,9 +109,9 @@ class Scene:
             pb.setJointMotorControl2(self.robot, j, pb.VELOCITY_CONTROL, force=0, physicsClientId=c)
         pb.enableJointForceTorqueSensor(self.robot, self.ft_joint, True, physicsClientId=c)
 
-        plate_half = [0.2, 0.45, 0.01]
+        plate_half = [0.2, 0.45, 0.05]  # thick, so a deep press into the soft mat never tunnels through
         col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=plate_half, physicsClientId=c)
-        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=plate_half, rgbaColor=[0.9, 0.9, 0.85, 1], physicsClientId=c)
+        vis = pb.createVisualShape(pb.GEOM_BOX, halfExtents=plate_half, rgbaColor=[0.45, 0.5, 0.42, 1], physicsClientId=c)
         self.plate = pb.createMultiBody(0, col, vis, [cfg.x_home, 0.15, -plate_half[2]], physicsClientId=c)
         pb.changeDynamics(self.plate, -1, lateralFriction=cfg.plate_friction, contactStiffness=cfg.plate_stiffness,
                           contactDamping=cfg.plate_damping, physicsClientId=c)
@@ -128,7 +129,12 @@ class Scene:
         pb.changeDynamics(self.robot, self.blade_bottom, lateralFriction=cfg.blade_plate_friction / cfg.plate_friction,
                           physicsClientId=c)
         self.mu = float("nan")
-        self.state_id: int | None = None
+        # every rollout starts from this snapshot (no contacts, no solver warm-start
+        # history), so a rollout's result does not depend on the ones before it
+        self.state_id = pb.saveState(physicsClientId=c)
+
+    def restore(self) -> None:
+        pb.restoreState(self.state_id, physicsClientId=self.client)
 
     def set_mu(self, mu: float) -> None:
         """Spatula-object friction: Bullet multiplies the two bodies' coefficients, the object's is 1."""
