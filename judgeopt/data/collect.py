@@ -28,7 +28,7 @@ from tqdm import tqdm
 
 import judgeopt
 from judgeopt.data.commands import RandomCommandConfig, random_command
-from judgeopt.data.dataset import Dataset, DatasetError, save
+from judgeopt.data.dataset import Dataset, DatasetError, load, save
 from judgeopt.sim.controller import ControllerConfig
 from judgeopt.sim.rollout import RolloutConfig, Simulator
 from judgeopt.sim.scene import SceneConfig
@@ -179,7 +179,7 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
     )
     save(ds, out)
     shutil.rmtree(partial)
-    return ds
+    return load(out)  # what the file holds, validated
 
 
 def _run_numbered(spec: CollectionSpec, k: int, indices: list[int]) -> tuple[int, dict[str, Any]]:

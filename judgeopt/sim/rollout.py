@@ -94,6 +94,19 @@ class Simulator:
             self._ik_cache[key] = (q + np.pi) % (2 * np.pi) - np.pi
         return self._ik_cache[key]
 
+    def reset(self, y0: float, y_obj: float, mu: float, height: float = 0.0) -> None:
+        """Arm at TCP (x_home, y0, contact height + `height`), object at y_obj, friction mu."""
+        check_environment(y_obj, mu)
+        target = pin.SE3(np.eye(3), np.array([self.scene.config.x_home, y0, self.z_contact + height]))
+        q0 = self.home_joints(y0) if height == 0.0 else solve_ik(self.controller.model, self.controller.tcp, target,
+                                                                  self.home_joints(y0))
+        self._reset(q0, y_obj, mu)
+
+    def step(self, cmd: TaskCommand) -> None:
+        """One 1 ms control step: read the sensors, compute the torques, step the physics."""
+        q, ft = self._read()
+        self._apply(self.controller.step(q, ft, cmd))
+
     def _reset(self, q0: np.ndarray, y_obj: float, mu: float) -> None:
         sc = self.scene
         sc.restore()
@@ -127,8 +140,7 @@ class Simulator:
         check_plan(plan)
         cfg, ctl, sc = self.rollout_config, self.controller, self.scene
         step = sc.config.timestep
-        q0 = self.home_joints(float(plan.y[0]))
-        self._reset(q0, y_obj, mu)
+        self.reset(float(plan.y[0]), y_obj, mu)
         obj_start, _ = sc.object_pose()
         x_home, zc = sc.config.x_home, self.z_contact
         cmd = TaskCommand(position=np.array([x_home, plan.y[0], zc]))
@@ -137,8 +149,7 @@ class Simulator:
 
         def advance(c: TaskCommand) -> None:
             nonlocal k_total
-            q, ft = self._read()
-            self._apply(ctl.step(q, ft, c))
+            self.step(c)
             k_total += 1
             if record and k_total % record == 0:
                 frames.append(self._snapshot())
