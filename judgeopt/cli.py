@@ -174,14 +174,14 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     from judgeopt.data.dataset import DatasetError
-    from judgeopt.sim.scene import EnvironmentError_
+    from judgeopt.sim.scene import EnvironmentRangeError
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
 
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (CLIError, DatasetError, PlanError, EnvironmentError_, RobotDescriptionError) as exc:
+    except (CLIError, DatasetError, PlanError, EnvironmentRangeError, RobotDescriptionError) as exc:
         print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

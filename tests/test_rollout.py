@@ -5,7 +5,7 @@ import pytest
 
 from conftest import min_jerk_plan
 from judgeopt.sim.rollout import RolloutConfig
-from judgeopt.sim.scene import EnvironmentError_
+from judgeopt.sim.scene import EnvironmentRangeError
 from judgeopt.trajectory import Plan, PlanError
 
 
@@ -63,7 +63,7 @@ def test_bad_plans_get_clear_errors(sim, make, words):
 
 
 def test_bad_environment_gets_a_clear_error(sim):
-    with pytest.raises(EnvironmentError_, match=r"mu = 9.0 is outside .*\[0.01, 5.0\]"):
+    with pytest.raises(EnvironmentRangeError, match=r"mu = 9.0 is outside .*\[0.01, 5.0\]"):
         sim.run(min_jerk_plan(-0.03, 0.19, 1.0, 10.0), 0.19, 9.0)
 
 

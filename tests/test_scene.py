@@ -7,7 +7,7 @@ import pytest
 
 from judgeopt.sim._quiet import pb
 from judgeopt.sim.controller import TaskCommand
-from judgeopt.sim.scene import ENV_RANGES, EnvironmentError_, check_environment
+from judgeopt.sim.scene import ENV_RANGES, EnvironmentRangeError, check_environment
 
 G = 9.81
 
@@ -81,7 +81,7 @@ def test_blade_plate_friction_does_not_depend_on_mu(sim):
 
 @pytest.mark.parametrize("y_obj,mu", [(0.01, 1.0), (0.2, -1.0), (0.2, float("nan")), (0.5, 2.0)])
 def test_environment_outside_physical_range_is_rejected(y_obj, mu):
-    with pytest.raises(EnvironmentError_) as err:
+    with pytest.raises(EnvironmentRangeError) as err:
         check_environment(y_obj, mu)
     name = "y_obj" if not ENV_RANGES["y_obj"][0] <= y_obj <= ENV_RANGES["y_obj"][1] else "mu"
     assert name in str(err.value) and "range" in str(err.value)

@@ -110,7 +110,6 @@ def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path) -> str:
     # handle: from the sensor face (0,0,0) down and forward to the blade's back edge
     h_mid = np.array([0.0, 0.5 * g.handle_length * math.cos(a), -0.5 * g.handle_length * math.sin(a)])
     c = g.blade_centre()
-    blade_box = f"{g.blade_width} {g.blade_length} {g.blade_thickness}"
     blade_geom = f'<mesh filename="{blade_mesh}"/>'
     blade_origin = f'xyz="{c[0]:.6f} {c[1]:.6f} {c[2]:.6f}" rpy="{-t:.6f} 0 0"'
 

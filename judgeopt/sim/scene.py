@@ -30,7 +30,7 @@ ARM_JOINTS = (
 ENV_RANGES = {"y_obj": (0.05, 0.35), "mu": (0.01, 5.0)}
 
 
-class EnvironmentError_(ValueError):
+class EnvironmentRangeError(ValueError):
     """An environment value outside the physical range of the scene."""
 
 
@@ -79,7 +79,7 @@ def check_environment(y_obj: float, mu: float) -> None:
     for name, value in (("y_obj", y_obj), ("mu", mu)):
         lo, hi = ENV_RANGES[name]
         if not (math.isfinite(value) and lo <= value <= hi):
-            raise EnvironmentError_(f"{name} = {value!r} is outside the scene's physical range [{lo}, {hi}]")
+            raise EnvironmentRangeError(f"{name} = {value!r} is outside the scene's physical range [{lo}, {hi}]")
 
 
 class Scene:
