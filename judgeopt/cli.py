@@ -67,7 +67,12 @@ def _check_range(name: str, values, allowed: tuple[float, float]) -> None:
 # -- inspect ---------------------------------------------------------------------------
 def cmd_inspect(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
+    from judgeopt.judge.cli import format_model_info, inspect_model, is_model_path
 
+    if is_model_path(args.path):
+        info = inspect_model(args.path)
+        print(json.dumps(info) if args.json else format_model_info(info))
+        return 0
     s = load(args.path).summary()
     if args.json:
         print(json.dumps(s))
@@ -151,7 +156,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--quiet", action="store_true", help="no progress bar")
     c.set_defaults(func=cmd_collect)
 
-    i = sub.add_parser("inspect", help="summarise a dataset file", description="Counts, success ratios, metadata.")
+    i = sub.add_parser("inspect", help="summarise a dataset or model file",
+                       description="Dataset: counts, success ratios, metadata. Model (.pt/.json or its stem): "
+                       "architecture, horizon, environment variables, accuracy, provenance.")
     i.add_argument("path")
     i.add_argument("--json", action="store_true", help="print one JSON object")
     i.set_defaults(func=cmd_inspect)
@@ -169,11 +176,16 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--data", required=True)
     d.add_argument("--out", default="velocity_force.png")
     d.set_defaults(func=cmd_plot_data)
+
+    from judgeopt.judge.cli import add_judge_commands
+
+    add_judge_commands(sub)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     from judgeopt.data.dataset import DatasetError
+    from judgeopt.judge.model import JudgeError
     from judgeopt.sim.scene import EnvironmentRangeError
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
@@ -181,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (CLIError, DatasetError, PlanError, EnvironmentRangeError, RobotDescriptionError) as exc:
+    except (CLIError, DatasetError, JudgeError, PlanError, EnvironmentRangeError, RobotDescriptionError) as exc:
         print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -1,0 +1,425 @@
+"""The trained judge as a CasADi Function: (trajectory, env) -> (logit, probability).
+
+Inputs, raw physical values as the judge was trained on:
+  traj  ((N+1)*C, 1)  the (N+1, C) response [y, ydot, f] flattened ROW-major
+                      (numpy `x.ravel()`: y_0, ydot_0, f_0, y_1, ...)
+  env   (E, 1)        the judge's environment variables, in `config.env_names` order
+Outputs: logit (1x1) and prob = sigmoid(logit) (1x1). First derivatives are exact.
+
+Backends (measure with benchmarks/bench_judge_casadi.py):
+  "native"     the network written as a CasADi MX graph (no compiler, ~0.2 s to build,
+               CasADi AD for derivatives; works inside codegen and without the GIL).
+  "compiled"   the same graph generated as C and compiled with gcc -O3 (slow to build,
+               cached); derivatives from the generated reverse-mode function.
+  "torch"      a casadi.Callback around torch autograd (reverse mode: one backward pass);
+               no build at all; needs the Python interpreter at solve time.
+  "l4casadi"   l4casadi 2.0 (TorchScript traces compiled into a shared library; cached).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import subprocess
+import tempfile
+import time
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import casadi as cs
+import numpy as np
+import torch
+from torch import nn
+
+from judgeopt.judge.model import Judge, JudgeError, UnrolledJudge, lstm_layer_weights
+
+BACKENDS = ("native", "compiled", "torch", "l4casadi")
+#: chosen by measurement (benchmarks/bench_judge_casadi.py, docs/judge.md)
+DEFAULT_BACKEND = "torch"
+
+
+class CasadiBuildError(JudgeError):
+    """A backend that could not be built (compiler missing, l4casadi failure, ...)."""
+
+
+@dataclass
+class CasadiJudge:
+    """A built judge function and how it came to be. Keep this object alive while the
+    Function is used: the torch backend's callbacks live in Python."""
+
+    fn: cs.Function
+    backend: str
+    build_seconds: float
+    cache_hit: bool = False
+    cache_dir: Path | None = None
+    horizon: int = 0
+    n_env: int = 0
+    _keep: list[Any] = field(default_factory=list, repr=False)
+
+    def __call__(self, *args: Any) -> Any:
+        return self.fn(*args)
+
+    def value_and_gradient(self, traj: np.ndarray, env: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
+        """logit and its gradient w.r.t. the flattened trajectory and env (convenience, numeric)."""
+        grad = self._grad_fn()
+        out = grad(np.asarray(traj, float).ravel(), np.asarray(env, float).ravel())
+        return float(out[0]), np.asarray(out[1]).ravel(), np.asarray(out[2]).ravel()
+
+    def _grad_fn(self) -> cs.Function:
+        if not hasattr(self, "_grad"):
+            x, e = cs.MX.sym("traj", self.fn.size1_in(0)), cs.MX.sym("env", self.fn.size1_in(1))
+            logit = self.fn(x, e)[0]
+            g = cs.gradient(logit, cs.vertcat(x, e))  # one reverse sweep for both inputs
+            n = x.size1()
+            self._grad = cs.Function("judge_value_grad", [x, e], [logit, g[:n], g[n:]])
+        return self._grad
+
+
+def default_cache_dir() -> Path:
+    """$JUDGEOPT_CACHE, else ~/.cache/judgeopt."""
+    env = os.environ.get("JUDGEOPT_CACHE")
+    return Path(env) if env else Path.home() / ".cache" / "judgeopt"
+
+
+def model_hash(judge: Judge) -> str:
+    """sha256 of the judge's architecture and every parameter/buffer value.
+
+    Why the content and not the .pt file's bytes: the same weights give the same hash
+    whether the model came from a file or from memory, and any retraining changes it.
+    """
+    h = hashlib.sha256(json.dumps(judge.config.to_dict(), sort_keys=True).encode())
+    for name, t in sorted(judge.state_dict().items()):
+        h.update(name.encode())
+        h.update(t.detach().cpu().double().contiguous().numpy().tobytes())
+    return h.hexdigest()
+
+
+def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: str | Path | None = None,
+                       name: str = "judge", precision: str = "float64") -> CasadiJudge:
+    """Build the judge's CasADi Function with `backend` (cached where building is slow).
+
+    precision applies to the torch backend: "float64" (default) evaluates a float64 copy of
+    the network, exact to rounding; "float32" runs the network as trained, several times
+    faster on CPU (oneDNN's fused LSTM kernel) but with ~1e-7 relative noise in value and
+    gradient, which can stall a line search at tight tolerances. The other backends are float64.
+    """
+    if backend not in BACKENDS:
+        raise JudgeError(f"unknown CasADi backend {backend!r}; choose one of {list(BACKENDS)}")
+    if precision not in ("float64", "float32"):
+        raise JudgeError(f"precision must be 'float64' or 'float32', got {precision!r}")
+    judge = judge.eval()
+    t0 = time.perf_counter()
+    if backend == "native":
+        fn = _native_function(judge, name)
+        return CasadiJudge(fn, backend, time.perf_counter() - t0, horizon=judge.config.horizon,
+                           n_env=judge.config.n_env)
+    if backend == "torch":
+        cb = _TorchJudgeCallback(name, judge, dtype=getattr(torch, precision))
+        return CasadiJudge(cb, backend, time.perf_counter() - t0, horizon=judge.config.horizon,
+                           n_env=judge.config.n_env, _keep=[cb])
+    root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
+    if backend == "compiled":
+        fn, hit, where = _compiled_function(judge, root)
+    else:
+        fn, hit, where = _l4casadi_function(judge, root)
+    x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", judge.config.n_env)
+    out = fn(x, e) if backend == "compiled" else fn(cs.vertcat(x, e).T)
+    logit, prob = (out[0], out[1]) if backend == "compiled" else (out[0, 0], out[0, 1])
+    wrapped = cs.Function(name, [x, e], [logit, prob], ["traj", "env"], ["logit", "prob"])
+    return CasadiJudge(wrapped, backend, time.perf_counter() - t0, cache_hit=hit, cache_dir=where,
+                       horizon=judge.config.horizon, n_env=judge.config.n_env, _keep=[fn])
+
+
+def _n_traj(judge: Judge) -> int:
+    return (judge.config.horizon + 1) * judge.config.n_channels
+
+
+# -- native MX graph -------------------------------------------------------------------------
+def _native_function(judge: Judge, name: str) -> cs.Function:
+    """The network as an MX graph. The input projection of each LSTM layer is one matrix
+    product over all steps; only the recurrent product stays per step (fewer, larger ops
+    are what CasADi's virtual machine runs fast)."""
+    cfg = judge.config
+    n1, H = cfg.horizon + 1, cfg.lstm_units
+    x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", cfg.n_env)
+    xm, xs = (cs.DM(getattr(judge, k).detach().double().numpy()) for k in ("x_mean", "x_std"))
+    em, es = (cs.DM(getattr(judge, k).detach().double().numpy()) for k in ("e_mean", "e_std"))
+    X = (cs.reshape(x, cfg.n_channels, n1) - cs.repmat(xm, 1, n1)) / cs.repmat(xs, 1, n1)
+    U = cs.vertcat(X, cs.repmat((e - em) / es, 1, n1)) if cfg.n_env else X
+
+    def sig(v: cs.MX) -> cs.MX:
+        return 1 / (1 + cs.exp(-v))
+
+    h = None
+    for W, b in lstm_layer_weights(judge.lstm):
+        n_in = W.shape[1] - H
+        Z = cs.mtimes(cs.DM(W[:, :n_in]), U) + cs.repmat(cs.DM(b), 1, n1)
+        W_hh = cs.DM(W[:, n_in:])
+        hs = []
+        for k in range(n1):
+            z = Z[:, k] if k == 0 else Z[:, k] + cs.mtimes(W_hh, h)
+            i, f, g, o = sig(z[:H]), sig(z[H:2 * H]), cs.tanh(z[2 * H:3 * H]), sig(z[3 * H:])
+            c = i * g if k == 0 else f * c + i * g  # noqa: F821 (c defined at k = 0)
+            h = o * cs.tanh(c)
+            hs.append(h)
+        U = cs.horzcat(*hs)
+    a = h
+    linears = [m for m in judge.head if isinstance(m, nn.Linear)]
+    for j, lin in enumerate(linears):
+        a = cs.mtimes(cs.DM(lin.weight.detach().double().numpy()), a) + cs.DM(lin.bias.detach().double().numpy())
+        if j < len(linears) - 1:
+            a = cs.fmax(a, 0)
+    return cs.Function(name, [x, e], [a, sig(a)], ["traj", "env"], ["logit", "prob"])
+
+
+# -- compiled C of the native graph ---------------------------------------------------------
+def _compiled_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Path]:
+    """Generate C for the graph plus its reverse-mode and Jacobian functions (named so that
+    casadi.external finds them: adj1_<name>, jac_<name>) and compile it once per model."""
+    key = _cache_key(judge, "compiled", cs.__version__)
+    name = f"judge_c_{key}"
+    where = root / "compiled" / key
+    lib = where / f"lib{name}.so"
+    if (where / "complete.json").exists() and lib.exists():
+        return cs.external(name, str(lib)), True, where
+    if shutil.which("gcc") is None:
+        raise CasadiBuildError("the 'compiled' backend needs gcc on PATH")
+    fn = _native_function(judge, name)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
+    try:
+        cg = cs.CodeGenerator(f"{name}.c", {"with_header": False})
+        cg.add(fn)
+        cg.add(fn.reverse(1))
+        cg.add(fn.jacobian())
+        cg.generate(str(tmp) + os.sep)
+        cmd = ["gcc", "-O2", "-fPIC", "-shared", str(tmp / f"{name}.c"), "-o", str(tmp / lib.name), "-lm"]
+        res = subprocess.run(cmd, capture_output=True, text=True)
+        if res.returncode != 0:
+            raise CasadiBuildError(f"gcc failed building {name}: {res.stderr[-2000:]}")
+        (tmp / "complete.json").write_text(json.dumps({"backend": "compiled", "casadi": cs.__version__}))
+        _publish(tmp, where)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return cs.external(name, str(lib)), False, where
+
+
+# -- l4casadi -------------------------------------------------------------------------------
+def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Path]:
+    """l4casadi of the unrolled concat-Linear cell model (float64), built once per model.
+
+    Built in a temporary folder with model_search_path pointing at the final folder, then
+    renamed into place, so a half-built cache entry is never seen by another process."""
+    try:
+        import l4casadi
+    except ImportError as exc:  # pragma: no cover - depends on the installation
+        raise CasadiBuildError(f"the 'l4casadi' backend needs l4casadi installed ({exc})") from exc
+    version = getattr(l4casadi, "__version__", "?")
+    key = _cache_key(judge, "l4casadi", f"{version}|{torch.__version__}")
+    name = f"judge_l4c_{key}"
+    where = root / "l4casadi" / key
+    lib = where / f"lib{name}.so"
+    if (where / "complete.json").exists() and lib.exists():
+        return cs.external(name, str(lib)), True, where
+    model = _Float64Input(UnrolledJudge(judge).double())
+    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", (DeprecationWarning, UserWarning))  # torch.jit deprecations, TF32 notes
+            with torch.backends.mkldnn.flags(enabled=False):
+                l4c = l4casadi.L4CasADi(model, name=name, build_dir=str(tmp), model_search_path=str(where.absolute()),
+                                        generate_jac=True, generate_adj1=True, generate_jac_adj1=False,
+                                        generate_jac_jac=False)
+                l4c.build(cs.MX.sym("inp", 1, _n_traj(judge) + judge.config.n_env))
+        missing = [f for f in (f"{name}.pt", f"jac_{name}.pt", f"adj1_{name}.pt", lib.name) if not (tmp / f).exists()]
+        if missing:
+            raise CasadiBuildError(f"l4casadi did not produce {missing} (derivative traces failed)")
+        (tmp / "complete.json").write_text(json.dumps({"backend": "l4casadi", "l4casadi": version,
+                                                       "torch": torch.__version__}))
+        _publish(tmp, where)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    return cs.external(name, str(lib)), False, where
+
+
+class _Float64Input(nn.Module):
+    """Casts whatever dtype l4casadi's C++ side passes to float64 before the model."""
+
+    def __init__(self, model: nn.Module) -> None:
+        super().__init__()
+        self.model = model
+
+    def forward(self, inp: torch.Tensor) -> torch.Tensor:
+        return self.model(inp.to(torch.float64))
+
+
+def _cache_key(judge: Judge, backend: str, versions: str) -> str:
+    return hashlib.sha256(f"{model_hash(judge)}|{backend}|{versions}".encode()).hexdigest()[:20]
+
+
+def _mkdir(p: Path) -> Path:
+    p.mkdir(parents=True, exist_ok=True)
+    return p
+
+
+def _publish(tmp: Path, where: Path) -> None:
+    """Move a finished build into place; if another process won the race, keep its copy."""
+    try:
+        os.replace(tmp, where)
+    except OSError:
+        if not (where / "complete.json").exists():
+            shutil.rmtree(where, ignore_errors=True)
+            os.replace(tmp, where)
+
+
+# -- casadi.Callback around torch autograd --------------------------------------------------
+class _TorchJudgeCallback(cs.Callback):
+    """(traj, env) -> (logit, prob) evaluated by torch in float64.
+
+    Derivatives: reverse mode (one torch backward per adjoint direction) and a Jacobian
+    (one backward gives d logit; d prob = p (1 - p) d logit)."""
+
+    def __init__(self, name: str, judge: Judge, dtype: torch.dtype = torch.float64, opts: dict | None = None) -> None:
+        cs.Callback.__init__(self)
+        self.dtype = dtype
+        self.model = _copy(judge, dtype)
+        self.nx, self.ne = _n_traj(judge), judge.config.n_env
+        self.shape = (judge.config.horizon + 1, judge.config.n_channels)
+        self._children: list[cs.Callback] = []
+        self._last: tuple[bytes, tuple[torch.Tensor, torch.Tensor, torch.Tensor]] | None = None
+        self.construct(name, {"enable_fd": False, **(opts or {})})
+
+    def get_n_in(self) -> int:
+        return 2
+
+    def get_n_out(self) -> int:
+        return 2
+
+    def get_name_in(self, i: int) -> str:
+        return ("traj", "env")[i]
+
+    def get_name_out(self, i: int) -> str:
+        return ("logit", "prob")[i]
+
+    def get_sparsity_in(self, i: int) -> cs.Sparsity:
+        return cs.Sparsity.dense(self.nx if i == 0 else self.ne, 1)
+
+    def get_sparsity_out(self, i: int) -> cs.Sparsity:
+        return cs.Sparsity.dense(1, 1)
+
+    def eval(self, args: list) -> list:
+        logit = self._forward(args[0], args[1])[0].item()
+        return [logit, _sigmoid(logit)]
+
+    def _forward(self, traj: Any, env: Any) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        """Forward with the autograd graph kept for the last point: solvers ask for the value
+        and then the gradient at the same point, so the gradient costs one backward only."""
+        key = np.asarray(traj, dtype=np.float64).tobytes() + np.asarray(env, dtype=np.float64).tobytes()
+        if self._last is None or self._last[0] != key:
+            x, e = _tensors(traj, env, self.shape, grad=True, dtype=self.dtype)
+            self._last = (key, (self.model(x, e), x, e))
+        return self._last[1]
+
+    def has_reverse(self, nadj: int) -> bool:
+        return True
+
+    def get_reverse(self, nadj: int, name: str, inames: list, onames: list, opts: dict) -> cs.Function:
+        cb = _TorchReverse(name, self, nadj, opts)
+        self._children.append(cb)
+        return cb
+
+    def has_jacobian(self) -> bool:
+        return True
+
+    def get_jacobian(self, name: str, inames: list, onames: list, opts: dict) -> cs.Function:
+        cb = _TorchJacobian(name, self, opts)
+        self._children.append(cb)
+        return cb
+
+    def logit_and_grad(self, traj: Any, env: Any) -> tuple[float, np.ndarray, np.ndarray]:
+        logit, x, e = self._forward(traj, env)
+        gx, ge = torch.autograd.grad(logit, (x, e), retain_graph=True)
+        return logit.item(), gx.double().numpy().ravel(), ge.double().numpy().ravel()
+
+
+class _TorchReverse(cs.Callback):
+    """Inputs traj, env, logit, prob (nominal), adj_logit, adj_prob (nadj columns each);
+    outputs adj_traj (nx x nadj), adj_env (ne x nadj)."""
+
+    def __init__(self, name: str, parent: _TorchJudgeCallback, nadj: int, opts: dict) -> None:
+        cs.Callback.__init__(self)
+        self.parent, self.nadj = parent, nadj
+        self.construct(name, {"enable_fd": False})
+
+    def get_n_in(self) -> int:
+        return 6
+
+    def get_n_out(self) -> int:
+        return 2
+
+    def get_sparsity_in(self, i: int) -> cs.Sparsity:
+        p = self.parent
+        return [cs.Sparsity.dense(p.nx, 1), cs.Sparsity.dense(p.ne, 1), cs.Sparsity.dense(1, 1),
+                cs.Sparsity.dense(1, 1), cs.Sparsity.dense(1, self.nadj), cs.Sparsity.dense(1, self.nadj)][i]
+
+    def get_sparsity_out(self, i: int) -> cs.Sparsity:
+        p = self.parent
+        return cs.Sparsity.dense(p.nx if i == 0 else p.ne, self.nadj)
+
+    def eval(self, args: list) -> list:
+        _, gx, ge = self.parent.logit_and_grad(args[0], args[1])
+        p = float(args[3])
+        seed = np.asarray(args[4]).ravel() + np.asarray(args[5]).ravel() * p * (1 - p)
+        return [np.outer(gx, seed), np.outer(ge, seed)]
+
+
+class _TorchJacobian(cs.Callback):
+    """Inputs traj, env, logit, prob; outputs d(logit, prob)/d(traj, env), four blocks."""
+
+    def __init__(self, name: str, parent: _TorchJudgeCallback, opts: dict) -> None:
+        cs.Callback.__init__(self)
+        self.parent = parent
+        self.construct(name, {"enable_fd": False})
+
+    def get_n_in(self) -> int:
+        return 4
+
+    def get_n_out(self) -> int:
+        return 4
+
+    def get_sparsity_in(self, i: int) -> cs.Sparsity:
+        p = self.parent
+        return [cs.Sparsity.dense(p.nx, 1), cs.Sparsity.dense(p.ne, 1), cs.Sparsity.dense(1, 1),
+                cs.Sparsity.dense(1, 1)][i]
+
+    def get_sparsity_out(self, i: int) -> cs.Sparsity:
+        p = self.parent
+        return cs.Sparsity.dense(1, p.nx if i % 2 == 0 else p.ne)
+
+    def eval(self, args: list) -> list:
+        _, gx, ge = self.parent.logit_and_grad(args[0], args[1])
+        p = float(args[3])
+        s = p * (1 - p)
+        return [gx[None], ge[None], s * gx[None], s * ge[None]]
+
+
+def _copy(judge: Judge, dtype: torch.dtype) -> Judge:
+    model = Judge(judge.config)
+    model.load_state_dict(judge.state_dict())
+    for p in model.parameters():
+        p.requires_grad_(False)  # gradients w.r.t. the inputs only
+    return model.to(dtype).eval()
+
+
+def _tensors(traj: Any, env: Any, shape: tuple[int, int], grad: bool = False,
+             dtype: torch.dtype = torch.float64) -> tuple[torch.Tensor, torch.Tensor]:
+    x = torch.tensor(np.asarray(traj, dtype=np.float64).reshape(1, *shape), dtype=dtype, requires_grad=grad)
+    e = torch.tensor(np.asarray(env, dtype=np.float64).reshape(1, -1), dtype=dtype, requires_grad=grad)
+    return x, e
+
+
+def _sigmoid(v: float) -> float:
+    return float(1.0 / (1.0 + np.exp(-v)))

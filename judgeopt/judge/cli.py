@@ -1,0 +1,293 @@
+"""`judgeopt train-judge`, `judgeopt test-judge` and model inspection.
+
+Wired into the main command line by judgeopt/cli.py through `add_judge_commands`; also
+runnable alone: `python -m judgeopt.judge.cli train-judge ...` (same arguments).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import sys
+import time
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+DEFAULT_MODEL = "models/judge_default"
+
+
+def _cli():
+    """judgeopt.cli imported lazily: it imports this module while it builds its parser."""
+    from judgeopt import cli
+    return cli
+
+
+def _names(text: str) -> tuple[str, ...]:
+    names = tuple(n.strip() for n in text.split(",") if n.strip())
+    if not names:
+        raise argparse.ArgumentTypeError(f"expected comma-separated environment variable names, got {text!r}")
+    return names
+
+
+def _positive(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
+    return v
+
+
+def resolve_model(path: str | os.PathLike) -> Path:
+    """A model path as given; the shipped default also resolves from the repository root,
+    so `judgeopt test-judge` works from any folder of a source checkout."""
+    from judgeopt.judge.store import model_paths
+
+    p = Path(path)
+    if model_paths(p)[1].exists() or p.is_absolute():
+        return p
+    repo = Path(__file__).resolve().parents[2] / p
+    return repo if model_paths(repo)[1].exists() else p
+
+
+# -- train-judge -----------------------------------------------------------------------------
+def cmd_train_judge(args: argparse.Namespace) -> int:
+    import numpy as np
+    import torch
+
+    import judgeopt
+    from judgeopt.data.dataset import load
+    from judgeopt.judge.evaluate import evaluate_judge
+    from judgeopt.judge.model import JudgeConfig
+    from judgeopt.judge.store import save_judge, sha256_file
+    from judgeopt.judge.train import TrainConfig, train_judge, write_history
+
+    CLIError = _cli().CLIError
+    out = Path(args.out)
+    if out.suffix in (".pt", ".json"):
+        out = out.with_suffix("")
+    torch.set_num_threads(args.jobs or os.cpu_count() or 1)
+    train_ds = load(args.train)
+    test_ds = load(args.test) if args.test else None
+    env_names = args.env_names or tuple(train_ds.env_names)
+    missing = [n for n in env_names if n not in train_ds.env_names]
+    if missing:
+        raise CLIError(f"--env-names {','.join(missing)}: not in {args.train} (it has {','.join(train_ds.env_names)})")
+    if test_ds is not None and (test_ds.horizon != train_ds.horizon or test_ds.dt != train_ds.dt):
+        raise CLIError(f"{args.test} (N = {test_ds.horizon}, dt = {test_ds.dt}) does not match "
+                       f"{args.train} (N = {train_ds.horizon}, dt = {train_ds.dt})")
+    config = JudgeConfig(lstm_units=args.lstm_units, fc_units=args.fc_units, dropout=args.dropout,
+                         lstm_dropout=args.lstm_dropout, env_names=env_names, horizon=train_ds.horizon, dt=train_ds.dt)
+    tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
+                     input_noise=args.input_noise,
+                     invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.jobs,
+                     progress=not args.quiet)
+    model, result = train_judge(train_ds, test_ds, config, tc)
+    metrics: dict[str, Any] = {"best_epoch": result.best_epoch, "val_accuracy": result.best["val_accuracy"],
+                               "val_loss": result.best["val_loss"], "train_accuracy": result.best["train_accuracy"],
+                               "n_train": result.n_train, "n_val": result.n_val}
+    if test_ds is not None:
+        metrics["test"] = evaluate_judge(model, test_ds, invert_labels=args.invert_labels)
+        metrics["test_accuracy"] = metrics["test"]["accuracy"]
+        if args.invert_labels:
+            metrics["test_true_labels"] = evaluate_judge(model, test_ds)
+    meta = {
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        "command": _cli()._command_line(),
+        "seed": args.seed,
+        "invert_labels": bool(args.invert_labels),
+        "train_data": {"path": str(args.train), "sha256": sha256_file(args.train), "n": train_ds.n,
+                       "success_ratio": train_ds.success_ratio(), "env_names": list(train_ds.env_names)},
+        "test_data": ({"path": str(args.test), "sha256": sha256_file(args.test), "n": test_ds.n,
+                       "success_ratio": test_ds.success_ratio()} if test_ds is not None else None),
+        "train_config": result.config,
+        "training_seconds": result.seconds,
+        "threads": torch.get_num_threads(),
+        "torch_version": torch.__version__,
+        "numpy_version": np.__version__,
+        "metrics": metrics,
+        "selection": "epoch with the best validation accuracy (seeded stratified split of the training set); "
+                     "the test set is not used for selection",
+    }
+    pt, js = save_judge(model, out, meta)
+    files = write_history(result, out, title=f"NN_judge {out.name}")
+    line = f"wrote {pt} and {js} ({result.seconds:.0f} s): best epoch {result.best_epoch}, " \
+           f"validation accuracy {metrics['val_accuracy']:.4f}"
+    if test_ds is not None:
+        line += f", test accuracy {metrics['test_accuracy']:.4f}"
+        if args.invert_labels:
+            line += f" (against the inverted labels; {metrics['test_true_labels']['accuracy']:.4f} against the true ones)"
+    print(line)
+    print("history: " + ", ".join(str(f) for f in files))
+    return 0
+
+
+# -- test-judge ------------------------------------------------------------------------------
+def cmd_test_judge(args: argparse.Namespace) -> int:
+    from judgeopt.data.dataset import load
+    from judgeopt.judge.evaluate import evaluate_judge, format_metrics
+    from judgeopt.judge.store import load_judge
+
+    if args.jobs:
+        import torch
+        torch.set_num_threads(args.jobs)
+    model_path = resolve_model(args.model)
+    model, meta = load_judge(model_path)
+    ds = load(args.data)
+    t0 = time.perf_counter()
+    m = evaluate_judge(model, ds)
+    inverted = bool(meta.get("invert_labels"))
+    if inverted:
+        m["accuracy_vs_training_target"] = evaluate_judge(model, ds, invert_labels=True)["accuracy"]
+    m["seconds"] = time.perf_counter() - t0
+    m.update(model=str(model_path), data=str(args.data), invert_labels=inverted,
+             env_names=list(model.config.env_names))
+    if args.json:
+        print(json.dumps(_json_safe(m)))
+        return 0
+    print(f"{model_path} on {args.data}" + ("  (trained on INVERTED labels: scored against the true ones)"
+                                             if inverted else ""))
+    print(format_metrics(m))
+    if inverted:
+        print(f"  accuracy against the inverted labels it was trained on: {m['accuracy_vs_training_target']:.4f}")
+    return 0
+
+
+def _json_safe(v: Any) -> Any:
+    """NaN (precision of a judge that never says success) as null: strict JSON."""
+    if isinstance(v, float) and not math.isfinite(v):
+        return None
+    if isinstance(v, dict):
+        return {k: _json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [_json_safe(x) for x in v]
+    return v
+
+
+# -- inspect ---------------------------------------------------------------------------------
+def is_model_path(path: str | os.PathLike) -> bool:
+    """True for `x.pt`, `x.json` or `x` when `x.json` is a saved judge's metadata."""
+    from judgeopt.judge.store import model_paths
+
+    p = Path(path)
+    if p.suffix == ".pt":
+        return True
+    js = model_paths(p)[1]
+    if not js.exists():
+        return False
+    try:
+        return json.loads(js.read_text()).get("format") == "judgeopt-judge"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
+def inspect_model(path: str | os.PathLike) -> dict[str, Any]:
+    """A saved judge's metadata, validated by loading the weights too."""
+    from judgeopt.judge.store import load_judge
+
+    model, meta = load_judge(resolve_model(path))
+    n_params = sum(p.numel() for p in model.parameters())
+    metrics = meta.get("metrics", {})
+    return {
+        "path": str(path),
+        "config": meta["config"],
+        "parameters": n_params,
+        "invert_labels": meta.get("invert_labels", False),
+        "val_accuracy": metrics.get("val_accuracy"),
+        "test_accuracy": metrics.get("test_accuracy"),
+        "best_epoch": metrics.get("best_epoch"),
+        "training_seconds": meta.get("training_seconds"),
+        "train_data": meta.get("train_data"),
+        "test_data": meta.get("test_data"),
+        "command": meta.get("command"),
+        "seed": meta.get("seed"),
+        "package_version": meta.get("package_version"),
+        "created": meta.get("created"),
+        "weights_sha256": meta.get("weights_sha256"),
+        "normalization": meta.get("normalization"),
+    }
+
+
+def format_model_info(info: dict[str, Any]) -> str:
+    c = info["config"]
+    acc = lambda v: "-" if v is None else f"{v:.4f}"  # noqa: E731
+    td = info.get("train_data") or {}
+    return "\n".join([
+        f"{info['path']}  (judge, judgeopt {info['package_version']}, {info['created']})",
+        f"  network        : LSTM {c['lstm_layers']} x {c['lstm_units']}, FC {c['fc_layers']} x {c['fc_units']}, "
+        f"dropout {c['dropout']}, {info['parameters']} parameters",
+        f"  reads          : {', '.join(c['channels'])} over N = {c['horizon']} steps of {c['dt']} s; "
+        f"env {', '.join(c['env_names'])}" + ("  (trained on INVERTED labels)" if info["invert_labels"] else ""),
+        f"  accuracy       : validation {acc(info['val_accuracy'])}, test {acc(info['test_accuracy'])} "
+        f"(best epoch {info['best_epoch']})",
+        f"  trained on     : {td.get('path')} (n = {td.get('n')}, sha256 {str(td.get('sha256'))[:12]}...)",
+        f"  made by        : {info['command']}  (seed {info['seed']}, "
+        f"{(info['training_seconds'] or 0):.0f} s)",
+    ])
+
+
+def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
+    """Add `train-judge` and `test-judge` to the main parser's subcommands."""
+    from judgeopt.judge.train import TrainConfig
+    t = subparsers.add_parser(
+        "train-judge", help="train the success judge NN_judge on a demonstration file",
+        description="LSTM success judge (paper Fig. 2, Table 2) trained with Adam on the responses; the epoch "
+        "with the best accuracy on a validation split of --train is kept, --test is only reported. Writes "
+        "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.")
+    t.add_argument("--train", required=True, help="training dataset (HDF5)")
+    t.add_argument("--test", help="held-out test dataset (HDF5), reported every epoch")
+    t.add_argument("--out", required=True, help="model path without suffix, e.g. models/judge_default")
+    t.add_argument("--epochs", type=_positive, default=TrainConfig.epochs)
+    t.add_argument("--batch-size", type=_positive, default=TrainConfig.batch_size)
+    t.add_argument("--lr", type=float, default=TrainConfig.lr, help="peak learning rate (cosine-annealed)")
+    t.add_argument("--input-noise", type=float, default=TrainConfig.input_noise,
+                   help="training input noise, in normalisation std units")
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
+    t.add_argument("--env-names", type=_names, help="environment variables the judge sees (default: all in --train)")
+    t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
+    t.add_argument("--lstm-units", type=_positive, default=100)
+    t.add_argument("--fc-units", type=_positive, default=102)
+    t.add_argument("--dropout", type=float, default=0.3, help="dropout of the feed-forward layers")
+    t.add_argument("--lstm-dropout", type=float, default=0.3, help="dropout between the LSTM layers")
+    t.add_argument("--jobs", type=_positive, help="torch threads (default: all cores)")
+    t.add_argument("--quiet", action="store_true", help="no progress bar")
+    t.set_defaults(func=cmd_train_judge)
+
+    e = subparsers.add_parser(
+        "test-judge", help="score a trained judge on a dataset",
+        description="Accuracy, precision, recall, expected calibration error (10 bins) and the confusion matrix.")
+    e.add_argument("--model", default=DEFAULT_MODEL, help=f"model path without suffix (default {DEFAULT_MODEL})")
+    e.add_argument("--data", required=True, help="dataset (HDF5)")
+    e.add_argument("--json", action="store_true", help="print one JSON object")
+    e.add_argument("--jobs", type=_positive, help="torch threads")
+    e.set_defaults(func=cmd_test_judge)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Standalone entry point (the same subcommands plus `inspect-judge`)."""
+    from judgeopt.data.dataset import DatasetError
+    from judgeopt.judge.model import JudgeError
+
+    p = argparse.ArgumentParser(prog="judgeopt", description=__doc__)
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    add_judge_commands(sub)
+    i = sub.add_parser("inspect-judge", help="summarise a saved judge")
+    i.add_argument("path")
+    i.add_argument("--json", action="store_true")
+    i.set_defaults(func=lambda a: print(json.dumps(inspect_model(a.path)) if a.json
+                                        else format_model_info(inspect_model(a.path))) or 0)
+    args = p.parse_args(argv)
+    try:
+        return args.func(args)
+    except (_cli().CLIError, DatasetError, JudgeError) as exc:
+        print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

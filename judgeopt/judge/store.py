@@ -1,0 +1,159 @@
+"""A saved judge: `<name>.pt` (state_dict) next to `<name>.json` (everything else).
+
+Why two files: the weights stay a plain torch state_dict (loaded with weights_only=True, no
+pickled code), the metadata stays human-readable: architecture, trajectory format, the
+normalisation, the dataset it was trained on (sha256), metrics, version, command and seed.
+The JSON also records the sha256 of the .pt, so a weights file swapped or damaged after
+saving is caught on load.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import os
+import tempfile
+from pathlib import Path
+from typing import Any, Sequence
+
+import torch
+
+from judgeopt import __version__
+from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, TrajectoryError
+
+FORMAT = "judgeopt-judge"
+VERSION = 1
+
+
+class JudgeFileError(JudgeError):
+    """A model file that is missing, unreadable, corrupt or inconsistent with its metadata."""
+
+
+class IncompatibleJudgeError(TrajectoryError):
+    """A judge trained on a different trajectory format (horizon, dt, channels, env)."""
+
+
+def model_paths(path: str | Path) -> tuple[Path, Path]:
+    """`models/x`, `models/x.pt` or `models/x.json` -> (models/x.pt, models/x.json)."""
+    p = Path(path)
+    if p.suffix in (".pt", ".json"):
+        p = p.with_suffix("")
+    return p.with_name(p.name + ".pt"), p.with_name(p.name + ".json")
+
+
+def sha256_file(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _atomic_write(path: Path, data: bytes) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a shipped model should be readable
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def save_judge(model: Judge, path: str | Path, meta: dict[str, Any] | None = None) -> tuple[Path, Path]:
+    """Write `<path>.pt` then `<path>.json` (each atomically: temp file + os.replace).
+
+    `meta` adds free keys (metrics, training config, dataset hashes, command, seed); the
+    architecture, format, normalisation and weights hash are filled in here.
+    """
+    pt, js = model_paths(path)
+    buf = io.BytesIO()
+    torch.save({k: v.detach().cpu() for k, v in model.state_dict().items()}, buf)
+    data = buf.getvalue()
+    _atomic_write(pt, data)
+    record = {
+        "format": FORMAT,
+        "format_version": VERSION,
+        "package_version": __version__,
+        "config": model.config.to_dict(),
+        "normalization": model.normalization(),
+        "weights_file": pt.name,
+        "weights_sha256": hashlib.sha256(data).hexdigest(),
+        **(meta or {}),
+    }
+    _atomic_write(js, (json.dumps(record, indent=2, sort_keys=False) + "\n").encode())
+    return pt, js
+
+
+def load_meta(path: str | Path) -> dict[str, Any]:
+    """The JSON metadata, validated for format and the keys loading needs."""
+    _, js = model_paths(path)
+    if not js.exists():
+        raise JudgeFileError(f"{js}: no such model metadata file (train one with `judgeopt train-judge`)")
+    try:
+        meta = json.loads(js.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise JudgeFileError(f"{js}: corrupt model metadata, not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        got = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
+        raise JudgeFileError(f"{js}: not a judgeopt judge metadata file (format is {got!r})")
+    if int(meta.get("format_version", -1)) > VERSION:
+        raise JudgeFileError(f"{js}: format version {meta['format_version']} is newer than this judgeopt reads ({VERSION})")
+    missing = [k for k in ("config", "weights_sha256") if k not in meta]
+    if missing:
+        raise JudgeFileError(f"{js}: metadata lacks {missing}")
+    return meta
+
+
+def load_judge(path: str | Path, check_hash: bool = True) -> tuple[Judge, dict[str, Any]]:
+    """(model in eval mode, metadata); every problem is a JudgeFileError naming the file."""
+    pt, js = model_paths(path)
+    meta = load_meta(path)
+    try:
+        config = JudgeConfig.from_dict(meta["config"])
+    except (TypeError, ValueError) as exc:
+        raise JudgeFileError(f"{js}: invalid architecture config ({exc})") from exc
+    if not pt.exists():
+        raise JudgeFileError(f"{pt}: no such weights file (its metadata {js.name} exists)")
+    data = pt.read_bytes()
+    if check_hash and hashlib.sha256(data).hexdigest() != meta["weights_sha256"]:
+        raise JudgeFileError(f"{pt}: weights file does not match the sha256 recorded in {js.name} "
+                             "(damaged, or replaced after saving)")
+    try:
+        state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises several types for corrupt files
+        raise JudgeFileError(f"{pt}: corrupt weights file, torch cannot read it ({type(exc).__name__}: {exc})") from exc
+    model = Judge(config)
+    try:
+        model.load_state_dict(state)
+    except (RuntimeError, TypeError, AttributeError) as exc:
+        raise JudgeFileError(f"{pt}: weights do not fit the architecture in {js.name} ({exc})") from exc
+    return model.eval(), meta
+
+
+def check_compatible(meta: dict[str, Any] | JudgeConfig, horizon: int | None = None, dt: float | None = None,
+                     channels: Sequence[str] | None = None, env_names: Sequence[str] | None = None) -> None:
+    """Raise IncompatibleJudgeError saying exactly what differs between the judge's trajectory
+    format and the given one (None: not checked). env_names are those AVAILABLE: the judge
+    must find every variable it reads among them (order does not matter, it selects by name)."""
+    cfg = meta if isinstance(meta, JudgeConfig) else JudgeConfig.from_dict(meta["config"])
+    problems = []
+    if horizon is not None and int(horizon) != cfg.horizon:
+        problems.append(f"horizon N = {horizon} but the judge was trained on N = {cfg.horizon} "
+                        f"({cfg.horizon + 1} samples)")
+    if dt is not None and abs(float(dt) - cfg.dt) > 1e-9 * max(1.0, cfg.dt):
+        problems.append(f"dt = {dt} s but the judge was trained on dt = {cfg.dt} s")
+    if channels is not None and tuple(channels) != cfg.channels:
+        problems.append(f"channels {list(channels)} but the judge reads {list(cfg.channels)}")
+    if env_names is not None:
+        missing = [n for n in cfg.env_names if n not in tuple(env_names)]
+        if missing:
+            problems.append(f"environment variables {missing} are missing (available {list(env_names)}, "
+                            f"the judge reads {list(cfg.env_names)})")
+    if problems:
+        raise IncompatibleJudgeError("judge incompatible with the data: " + "; ".join(problems))
