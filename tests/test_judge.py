@@ -274,12 +274,41 @@ def test_cached_backend_matches_torch_and_second_build_hits_cache(backend, tmp_p
     assert not list(tmp_path.glob(f"{backend}/.*"))  # no half-built folders left
 
 
-def test_casadi_judge_in_an_nlp():
+@pytest.mark.parametrize("backend", ["native", "torch"])
+def test_casadi_gradient_finite_when_gates_saturate(backend):
+    """Far outside the training range the gates saturate: value and gradient stay finite."""
+    m = small_judge(horizon=6)
+    cj = build_casadi_judge(m, backend)
+    x = np.tile([5.0, -40.0, 1e5], (7, 1))
+    v, gx, ge = cj.value_and_gradient(x, np.array([-50.0, 400.0]))
+    assert np.isfinite(v) and np.isfinite(gx).all() and np.isfinite(ge).all()
+    tv, tgx, _ = _torch_value_grad(m, x, np.array([-50.0, 400.0]))
+    assert v == pytest.approx(tv, rel=1e-6, abs=1e-9)
+    np.testing.assert_allclose(gx, tgx, atol=1e-9)
+
+
+def test_l4casadi_resolves_float64_input_changes(tmp_path):
+    """l4casadi's C++ side hands the model float32 inputs; the hi/lo split must keep the
+    function responsive to input changes far below float32 resolution."""
+    m = small_judge(horizon=5)
+    cj = build_casadi_judge(m, "l4casadi", cache_dir=tmp_path)
+    ref = build_casadi_judge(m, "torch")
+    rng = np.random.default_rng(0)
+    x = rng.normal([0.1, 0.5, 12], [0.1, 0.5, 4], size=(6, 3)).ravel()
+    e = np.array([0.2, 2.0])
+    for d in (1e-10, 1e-9):
+        dx = x * (1 + d)
+        got = float(cj.fn(dx, e)[0]) - float(cj.fn(x, e)[0])
+        want = float(ref.fn(dx, e)[0]) - float(ref.fn(x, e)[0])
+        assert want != 0 and got == pytest.approx(want, rel=1e-3)
+
+
+def test_casadi_judge_in_an_nlp(tmp_path):
     """The function works inside an Ipopt problem (limited-memory Hessian)."""
     import casadi as cs
     m = small_judge(horizon=6)
-    for backend in ("native", "torch"):
-        cj = build_casadi_judge(m, backend)
+    for backend in ("native", "torch", "l4casadi"):
+        cj = build_casadi_judge(m, backend, cache_dir=tmp_path)
         x = cs.MX.sym("x", 21)
         x0 = np.tile([0.1, 0.5, 12.0], 7)
         nlp = {"x": x, "f": -cj.fn(x, cs.DM([0.2, 2.0]))[0] + 0.5 * cs.sumsqr(x - x0)}
