@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from judgeopt.judge.casadi_fn import BACKENDS, build_casadi_judge
+from judgeopt.judge.casadi_fn import BACKENDS, build_casadi_judge, torch_logit_and_grad
 from judgeopt.judge.model import Judge, JudgeConfig
 from judgeopt.judge.store import load_judge
 
@@ -92,7 +92,7 @@ def main() -> None:
         name = f"torch autograd {str(dtype).split('.')[-1]}"
         results[name] = {}
         calls[name] = (value_grad, value)
-    _, tgx, _ = _torch64(model, x, e)
+    _, tgx, _ = torch_logit_and_grad(model, x, e)
 
     cache = Path(args.cache_dir) if args.cache_dir else Path(tempfile.mkdtemp(prefix="judge_bench_"))
     for spec in args.backends.split(","):
@@ -131,16 +131,6 @@ def main() -> None:
         Path(args.json).write_text(json.dumps({"model": source, "threads": args.threads, "repeat": args.repeat,
                                                "rounds": args.rounds, "results": results}, indent=1) + "\n")
 
-
-def _torch64(model: Judge, x: np.ndarray, e: np.ndarray):
-    m = Judge(model.config)
-    m.load_state_dict(model.state_dict())
-    m = m.double().eval()
-    xt = torch.tensor(x[None], requires_grad=True)
-    et = torch.tensor(e[None], requires_grad=True)
-    logit = m(xt, et)
-    gx, ge = torch.autograd.grad(logit, (xt, et))
-    return logit.item(), gx.numpy().ravel(), ge.numpy().ravel()
 
 
 if __name__ == "__main__":

@@ -10,7 +10,7 @@ import pytest
 import torch
 
 from judgeopt.data.dataset import Dataset, save
-from judgeopt.judge.casadi_fn import build_casadi_judge, model_hash
+from judgeopt.judge.casadi_fn import build_casadi_judge, model_hash, torch_logit_and_grad
 from judgeopt.judge.evaluate import classification_metrics, evaluate_judge, expected_calibration_error
 from judgeopt.judge.model import Judge, JudgeConfig, TrajectoryError, UnrolledJudge
 from judgeopt.judge.store import (IncompatibleJudgeError, JudgeFileError, check_compatible, load_judge, model_paths,
@@ -212,16 +212,6 @@ def test_env_subset_selects_columns_by_name(trained):
 
 
 # -- CasADi ----------------------------------------------------------------------------------
-def _torch_value_grad(m: Judge, x: np.ndarray, e: np.ndarray):
-    md = Judge(m.config)
-    md.load_state_dict(m.state_dict())
-    md = md.double().eval()
-    xt = torch.tensor(x[None], requires_grad=True)
-    et = torch.tensor(e[None], requires_grad=True)
-    logit = md(xt, et)
-    gx, ge = torch.autograd.grad(logit, (xt, et))
-    return logit.item(), gx.numpy().ravel(), ge.numpy().ravel()
-
 
 def _check_backend(cj, m: Judge, n_points: int = 3, seed: int = 0):
     import casadi as cs
@@ -234,7 +224,7 @@ def _check_backend(cj, m: Judge, n_points: int = 3, seed: int = 0):
         x = rng.normal([0.1, 0.5, 12], [0.1, 0.5, 4], size=(n1, 3))
         e = rng.uniform([0.1, 1], [0.28, 3])
         v, gx, ge = cj.value_and_gradient(x, e)
-        tv, tgx, tge = _torch_value_grad(m, x, e)
+        tv, tgx, tge = torch_logit_and_grad(m, x, e)
         g, tg = np.concatenate([gx, ge]), np.concatenate([tgx, tge])
         assert abs(tg).max() > 1e-8, "degenerate judge: zero gradient"
         assert v == pytest.approx(tv, rel=1e-5, abs=1e-9)
@@ -282,7 +272,7 @@ def test_casadi_gradient_finite_when_gates_saturate(backend):
     x = np.tile([5.0, -40.0, 1e5], (7, 1))
     v, gx, ge = cj.value_and_gradient(x, np.array([-50.0, 400.0]))
     assert np.isfinite(v) and np.isfinite(gx).all() and np.isfinite(ge).all()
-    tv, tgx, _ = _torch_value_grad(m, x, np.array([-50.0, 400.0]))
+    tv, tgx, _ = torch_logit_and_grad(m, x, np.array([-50.0, 400.0]))
     assert v == pytest.approx(tv, rel=1e-6, abs=1e-9)
     np.testing.assert_allclose(gx, tgx, atol=1e-9)
 

@@ -440,6 +440,15 @@ class _TorchJacobian(cs.Callback):
         return [gx[None], ge[None], s * gx[None], s * ge[None]]
 
 
+def torch_logit_and_grad(judge: Judge, traj: Any, env: Any) -> tuple[float, np.ndarray, np.ndarray]:
+    """The float64 torch reference every CasADi backend is checked against: logit and its
+    gradients with respect to the (N + 1) x 3 trajectory (flattened) and the environment."""
+    x, e = _tensors(traj, env, (judge.config.horizon + 1, judge.config.n_channels), grad=True)
+    logit = _copy(judge, torch.float64)(x, e)
+    gx, ge = torch.autograd.grad(logit, (x, e))
+    return logit.item(), gx.numpy().ravel(), ge.numpy().ravel()
+
+
 def _copy(judge: Judge, dtype: torch.dtype) -> Judge:
     model = Judge(judge.config)
     model.load_state_dict(judge.state_dict())
