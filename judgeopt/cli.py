@@ -180,12 +180,16 @@ def build_parser() -> argparse.ArgumentParser:
     from judgeopt.judge.cli import add_judge_commands
 
     add_judge_commands(sub)
+    from judgeopt.planners.cli import add_planner_commands
+
+    add_planner_commands(sub)
     return p
 
 
 def main(argv: list[str] | None = None) -> int:
     from judgeopt.data.dataset import DatasetError
     from judgeopt.judge.model import JudgeError
+    from judgeopt.planners.problem import ProblemError
     from judgeopt.sim.scene import EnvironmentRangeError
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
@@ -193,7 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (CLIError, DatasetError, JudgeError, PlanError, EnvironmentRangeError, RobotDescriptionError) as exc:
+    except (CLIError, DatasetError, JudgeError, PlanError, ProblemError, EnvironmentRangeError, RobotDescriptionError) as exc:
         print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

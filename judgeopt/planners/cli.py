@@ -1,0 +1,238 @@
+"""`judgeopt solve` and `judgeopt train-generator`: problem options shared by both."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import os
+import sys
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
+
+DEFAULT_PROBLEM = "problems/paper_sim.toml"
+EXIT_INFEASIBLE = 3
+
+_FIELD_TYPES = {f.name: f.type for f in dataclasses.fields(Problem)}
+
+
+def _q_end(text: str) -> float | str:
+    return text if text == "y_obj" else float(text)
+
+
+def _parser_type(name: str):
+    t = str(_FIELD_TYPES[name])
+    if name == "q_end":
+        return _q_end
+    if name == "judge":
+        return str
+    return int if t == "int" else float
+
+
+def add_problem_arguments(p: argparse.ArgumentParser) -> None:
+    """--problem FILE and one option per problem field (`--qdot-max 0.4`), env by name."""
+    g = p.add_argument_group("problem", "a problem file and overrides of any of its values (SI units)")
+    g.add_argument("--problem", default=DEFAULT_PROBLEM, help=f"problem TOML file (default {DEFAULT_PROBLEM})")
+    for section, names in SECTIONS.items():
+        for name in names:
+            g.add_argument(f"--{name.replace('_', '-')}", dest=f"set_{name}", type=_parser_type(name), metavar="X",
+                           help=f"override [{section}] {name}")
+    g.add_argument("--y-obj", dest="env_y_obj", help="object position y_obj in m (a value, or lo,hi)")
+    g.add_argument("--mu", dest="env_mu", help="spatula-object friction mu (a value, or lo,hi)")
+
+
+def problem_from_args(args: argparse.Namespace) -> Problem:
+    from judgeopt.planners.solve import resolve
+
+    problem = load_problem(resolve(args.problem))
+    values: dict[str, Any] = {k[4:]: v for k, v in vars(args).items() if k.startswith("set_") and v is not None}
+    values.update({k[4:]: v for k, v in vars(args).items() if k.startswith("env_") and v is not None})
+    return problem.with_overrides(**values)
+
+
+# -- solve -----------------------------------------------------------------------------------
+def _table(results) -> str:
+    head = ("method", "predicted", "simulated", "max q̇ [m/s]", "force [N]", "worst violation", "status", "time")
+    rows = [head]
+    for r in results:
+        sim = "-" if r.simulated_success is None else ("success" if r.simulated_success else "FAILURE")
+        if r.plan is None:
+            rows.append((r.method, "-", sim, "-", "-", "-", r.status, f"{r.solve_time_s * 1e3:.1f} ms"))
+            continue
+        viol = f"{r.max_constraint_violation:.1e} ({r.worst_constraint})" if r.max_constraint_violation > 0 else "0"
+        t = r.solve_time_s
+        rows.append((r.method, f"{r.predicted_success:.3f}", sim, f"{r.plan.ydot.max():.3f}",
+                     f"{r.plan.f.min():.1f} to {r.plan.f.max():.1f}", viol,
+                     r.status + (f" ({r.iterations} it)" if r.iterations is not None else ""),
+                     f"{t * 1e3:.1f} ms" if t < 1 else f"{t:.2f} s"))
+    widths = [max(len(str(row[i])) for row in rows) for i in range(len(head))]
+    lines = ["  ".join(str(c).ljust(w) for c, w in zip(row, widths)) for row in rows]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)
+
+
+def _with_method(path: str, method: str, several: bool) -> Path:
+    p = Path(path)
+    return p.with_name(f"{p.stem}_{method}{p.suffix}") if several else p
+
+
+def cmd_solve(args: argparse.Namespace) -> int:
+    import time
+
+    from judgeopt.planners.solve import METHODS, Planners
+
+    t0 = time.perf_counter()
+    problem = problem_from_args(args)
+    env = problem.nominal_env()
+    methods = METHODS if args.method == "both" else (args.method,)
+    try:
+        problem.check_feasible(env)
+    except ProblemError as exc:
+        return _infeasible(args, problem, env, exc)
+    if args.simulate:
+        missing = [k for k in ("y_obj", "mu") if k not in env]
+        if missing:
+            raise ProblemError(f"--simulate needs the environment variables y_obj and mu; the problem lacks {missing}")
+    planners = Planners.load(problem, methods, judge=args.judge_model, generator=args.generator,
+                             models_dir=args.models)
+    sim = None
+    if args.simulate:
+        from judgeopt.sim.rollout import Simulator
+
+        sim = Simulator()
+    results = planners.solve(env, simulator=sim)
+    several = len(results) > 1
+    files = []
+    for r in results:
+        if r.plan is not None and args.out:
+            from judgeopt.planners.export import write_csv
+
+            files.append(write_csv(r.plan, _with_method(args.out, r.method, several)))
+    if args.plot and any(r.plan is not None for r in results):
+        from judgeopt.planners.export import plot_plans
+
+        files.append(plot_plans(problem, results, args.plot))
+    infeasible = any(r.status == "infeasible" for r in results)
+    if args.json:
+        print(json.dumps({"status": "infeasible" if infeasible else "ok", "problem": problem.to_dict(),
+                          "environment": env, "judge": str(planners.judge_path),
+                          "generator": str(planners.generator_path) if planners.generator_path else None,
+                          "notes": planners.notes, "files": [str(f) for f in files],
+                          "results": [r.to_json() for r in results]}))
+    else:
+        envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
+        print(f"{problem.name}: q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in [{problem.f_min}, "
+              f"{problem.f_max}] N, q from {problem.q0} to {problem.terminal_position(env):g} m in "
+              f"{problem.horizon_time:g} s; environment {envs}")
+        for note in planners.notes:
+            print(f"note: {note}")
+        print(_table(results))
+        for r in results:
+            if r.status not in ("solved", "generated"):
+                print(f"{r.method}: {r.message}")
+        for f in files:
+            print(f"wrote {f}")
+        print(f"total {time.perf_counter() - t0:.1f} s")
+    return EXIT_INFEASIBLE if infeasible else 0
+
+
+def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
+    conflict = getattr(exc, "conflict", [])
+    if args.json:
+        print(json.dumps({"status": "infeasible", "message": str(exc), "conflict": conflict, "environment": env,
+                          "problem": problem.to_dict(), "results": []}))
+    else:
+        print(f"judgeopt solve: infeasible: {exc}", file=sys.stderr)
+    return EXIT_INFEASIBLE
+
+
+# -- train-generator -------------------------------------------------------------------------
+def cmd_train_generator(args: argparse.Namespace) -> int:
+    import numpy as np
+    import torch
+
+    from judgeopt.cli import _command_line
+    from judgeopt.judge.store import check_compatible, load_judge
+    from judgeopt.planners.generator import AmortizedPlanner
+    from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
+    from judgeopt.planners.solve import resolve
+    from judgeopt.planners.store import save_generator
+
+    problem = problem_from_args(args)
+    jpath = resolve(args.judge_model or problem.judge, (".json",))
+    judge, jmeta = load_judge(jpath)
+    check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+    torch.set_num_threads(args.jobs or os.cpu_count() or 1)
+    tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
+                              threads=args.jobs, progress=not args.quiet)
+    gen, history = train_generator(problem, judge, tc=tc)
+    # held-out check: fresh environments (another seed), judged and measured like a solve
+    planner = AmortizedPlanner(gen, problem, judge)
+    rng = np.random.default_rng(args.seed + 1_000_003)
+    envs = problem.sample_env(rng, 200)
+    res = [planner.solve(dict(zip(problem.env_names, e))) for e in envs]
+    metrics = {"predicted_success_mean": float(np.mean([r.predicted_success for r in res])),
+               "max_constraint_violation_max": float(max(r.max_constraint_violation for r in res)),
+               "max_constraint_violation_median": float(np.median([r.max_constraint_violation for r in res])),
+               "n_envs": len(res), "final": history[-1] if history else {}}
+    meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "command": _command_line(),
+            "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
+            "judge": {"path": str(args.judge_model or problem.judge), "weights_sha256": jmeta["weights_sha256"]},
+            "metrics": metrics}
+    pt, js = save_generator(gen, args.out, meta)
+    _write_history(history, Path(args.out))
+    print(f"wrote {pt} and {js}: on 200 new environments predicted success {metrics['predicted_success_mean']:.3f}, "
+          f"worst constraint violation {metrics['max_constraint_violation_max']:.2e} "
+          f"(median {metrics['max_constraint_violation_median']:.2e})")
+    return 0
+
+
+def _write_history(history: list[dict], out: Path) -> None:
+    import csv
+
+    from judgeopt.judge.store import model_paths
+
+    if not history:
+        return
+    path = model_paths(out)[1].with_suffix(".history.csv")
+    tmp = path.with_suffix(".csv.tmp")
+    with open(tmp, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(history[0]))
+        w.writeheader()
+        w.writerows(history)
+    os.replace(tmp, path)
+
+
+def add_planner_commands(sub: argparse._SubParsersAction) -> None:
+    s = sub.add_parser("solve", help="plan a scoop under the problem's limits with the shipped models",
+                       description="Plan with the amortised generator and/or the direct Ipopt solve against the "
+                       "judge; show predicted (and with --simulate, simulated) success. Exit 3 if infeasible.")
+    add_problem_arguments(s)
+    s.add_argument("--method", choices=("direct", "amortized", "both"), default="both",
+                   help="both (default): the generator's plan warm-starts the direct solve")
+    s.add_argument("--simulate", action="store_true", help="replay each plan in PyBullet and report the outcome")
+    s.add_argument("--out", help="write the plan as CSV at 1 kHz (one file per method: NAME_METHOD.csv)")
+    s.add_argument("--plot", help="write q, q̇ and f against time with the allowed region (PNG)")
+    s.add_argument("--json", action="store_true", help="print one JSON object")
+    s.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
+    s.add_argument("--generator", help="generator model (default: one in --models trained for these limits)")
+    s.add_argument("--models", default="models", help="folder searched for generators")
+    s.set_defaults(func=cmd_solve)
+
+    t = sub.add_parser("train-generator", help="train the amortised generator through the frozen judge (eqs. 2-4)",
+                       description="Each epoch samples --batch environments from the problem's ranges and takes one "
+                       "Adam step on L = L1 + L2. Seeded and deterministic for a given thread count.")
+    add_problem_arguments(t)
+    t.add_argument("--out", required=True, help="model path stem, e.g. models/generator_slow")
+    t.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
+    t.add_argument("--epochs", type=int, default=5000)
+    t.add_argument("--batch", type=int, default=100, help="environments per epoch")
+    t.add_argument("--lr", type=float, default=1e-3)
+    t.add_argument("--seed", type=int, default=0)
+    t.add_argument("--jobs", type=int, default=1, help="torch threads (1: bit-reproducible)")
+    t.add_argument("--quiet", action="store_true")
+    t.set_defaults(func=cmd_train_generator)

@@ -1,0 +1,292 @@
+"""A planning problem: start state, limits, terminal state, horizon, environment, loss weights.
+
+Problems live in TOML files under `problems/` (format in problems/README.md). A file may name
+`base = "other.toml"` and change only some values: `paper_sim_slow.toml` is `paper_sim.toml`
+with q̇_max = 0.4. Every field can also be overridden by name (`with_overrides`, and the CLI's
+`--qdot-max 0.4`, `--y-obj 0.2`, `--mu 2.5`).
+
+Environment values are a number (fixed) or a [lo, hi] range. Training the generator and
+evaluation sample ranges; a single solve uses a fixed value, else the range's midpoint.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+#: a terminal position that is "wherever the object is"
+Y_OBJ = "y_obj"
+
+
+class ProblemError(ValueError):
+    """A problem file or override that is malformed or inconsistent."""
+
+
+class InfeasibleProblemError(ProblemError):
+    """Constraints that no trajectory can satisfy; `conflict` names them."""
+
+    def __init__(self, message: str, conflict: list[str]):
+        super().__init__(message)
+        self.conflict = conflict
+
+
+EnvValue = float | tuple[float, float]
+
+# TOML section -> fields it holds (the flat dataclass keeps overrides simple: one name each)
+SECTIONS: dict[str, tuple[str, ...]] = {
+    "horizon": ("steps", "dt"),
+    "start": ("q0", "qdot0"),
+    "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
+    "terminal": ("q_end", "qdot_end"),
+    "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
+    "solver": ("p_min", "max_iter", "tol"),
+    "models": ("judge",),
+}
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Units: m, m/s, N, s. Defaults are the paper's Table 3 (simulation)."""
+
+    name: str = "unnamed"
+    description: str = ""
+    steps: int = 30
+    dt: float = 0.05
+    q0: float = -0.03
+    qdot0: float = 0.0
+    q_min: float = -0.2
+    q_max: float = 0.4
+    qdot_min: float = -0.05
+    qdot_max: float = 1.0
+    f_min: float = 7.5
+    f_max: float = 22.5
+    q_end: float | str = Y_OBJ
+    qdot_end: float = 0.0
+    environment: dict[str, EnvValue] = field(default_factory=lambda: {"y_obj": (0.10, 0.28), "mu": (1.0, 3.0)})
+    # loss weights: eq. (3) P; eq. (4) Q (limits) and R (terminal) for the generator; the
+    # smoothing terms (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s) keep the direct
+    # solve away from bang-bang plans the controller cannot follow.
+    P: float = 1.0
+    Q: float = 1000.0
+    R: float = 1000.0
+    acc_weight: float = 1e-4
+    force_rate_weight: float = 1e-7
+    p_min: float | None = None  # optional hard constraint y_judge >= p_min in the direct solve
+    max_iter: int = 300
+    tol: float = 1e-6
+    judge: str = "models/judge_default"
+    source: str = ""  # the file it came from (for messages and provenance)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    # -- validation -----------------------------------------------------------------
+    def validate(self) -> None:
+        where = f" in {self.source}" if self.source else ""
+        for name in ("dt", "q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max", "qdot_end",
+                     "P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ProblemError(f"{name} = {v!r}{where} must be a finite number")
+        if not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps < 1:
+            raise ProblemError(f"steps = {self.steps!r}{where} must be a positive whole number (the horizon N)")
+        if self.dt <= 0:
+            raise ProblemError(f"dt = {self.dt}{where} must be positive (seconds per step)")
+        for lo, hi in (("q_min", "q_max"), ("qdot_min", "qdot_max"), ("f_min", "f_max")):
+            if not getattr(self, lo) < getattr(self, hi):
+                raise ProblemError(f"{lo} = {getattr(self, lo)} must be below {hi} = {getattr(self, hi)}{where}")
+        for name in ("P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
+            if getattr(self, name) < 0:
+                raise ProblemError(f"weight {name} = {getattr(self, name)}{where} must not be negative")
+        if not (self.q_min <= self.q0 <= self.q_max):
+            raise ProblemError(f"start position q0 = {self.q0} is outside [q_min, q_max] = "
+                               f"[{self.q_min}, {self.q_max}]{where}")
+        if not (self.qdot_min <= self.qdot0 <= self.qdot_max):
+            raise ProblemError(f"start velocity qdot0 = {self.qdot0} is outside [qdot_min, qdot_max] = "
+                               f"[{self.qdot_min}, {self.qdot_max}]{where}")
+        if isinstance(self.q_end, str) and self.q_end != Y_OBJ:
+            raise ProblemError(f"q_end = {self.q_end!r}{where} must be a number or \"{Y_OBJ}\"")
+        if isinstance(self.q_end, str) and Y_OBJ not in self.environment:
+            raise ProblemError(f"q_end = \"{Y_OBJ}\" but the environment has no y_obj{where}")
+        if self.p_min is not None and not (0.0 < self.p_min < 1.0):
+            raise ProblemError(f"p_min = {self.p_min}{where} must lie strictly between 0 and 1 (or be left out)")
+        if not isinstance(self.max_iter, int) or self.max_iter < 1:
+            raise ProblemError(f"max_iter = {self.max_iter!r}{where} must be a positive whole number")
+        if not self.environment:
+            raise ProblemError(f"the environment{where} names no variables")
+        for k, v in self.environment.items():
+            if isinstance(v, tuple):
+                if not (len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1]):
+                    raise ProblemError(f"environment {k} = {list(v)}{where} must be [lo, hi] with lo <= hi")
+            elif not math.isfinite(v):
+                raise ProblemError(f"environment {k} = {v!r}{where} must be a finite number")
+
+    # -- the environment --------------------------------------------------------------
+    @property
+    def env_names(self) -> tuple[str, ...]:
+        return tuple(self.environment)
+
+    def nominal_env(self) -> dict[str, float]:
+        """Fixed values as given, ranges at their midpoint (what a single solve uses by default)."""
+        return {k: (0.5 * (v[0] + v[1]) if isinstance(v, tuple) else float(v)) for k, v in self.environment.items()}
+
+    def sample_env(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """(n, E) environments: ranges sampled uniformly, fixed values repeated."""
+        cols = [rng.uniform(v[0], v[1], n) if isinstance(v, tuple) else np.full(n, float(v))
+                for v in self.environment.values()]
+        return np.stack(cols, axis=1)
+
+    def env_dict(self, env: Any) -> dict[str, float]:
+        """A full environment from a mapping or a vector in `env_names` order, checked."""
+        if isinstance(env, dict):
+            missing = [k for k in self.env_names if k not in env]
+            if missing:
+                raise ProblemError(f"environment is missing {missing} (the problem needs {list(self.env_names)})")
+            out = {k: float(env[k]) for k in self.env_names}
+        else:
+            v = np.asarray(env, dtype=float).ravel()
+            if v.size != len(self.env_names):
+                raise ProblemError(f"environment has {v.size} values, the problem needs {list(self.env_names)}")
+            out = dict(zip(self.env_names, map(float, v)))
+        bad = [k for k, v in out.items() if not math.isfinite(v)]
+        if bad:
+            raise ProblemError(f"environment values {bad} are not finite")
+        return out
+
+    def terminal_position(self, env: dict[str, float]) -> float:
+        return float(env[Y_OBJ]) if isinstance(self.q_end, str) else float(self.q_end)
+
+    @property
+    def horizon_time(self) -> float:
+        return self.steps * self.dt
+
+    # -- feasibility ------------------------------------------------------------------
+    def reachable_range(self) -> tuple[float, float]:
+        """Positions reachable at the horizon with the terminal velocity, under the velocity
+        limits. The plan integrates q with the trapezoid rule (dynamics.py), so
+        q_N - q_0 = dt (q̇_0/2 + sum_{k=1}^{N-1} q̇_k + q̇_N/2): extremes with every inner q̇_k at a limit."""
+        ends = self.dt * (0.5 * self.qdot0 + 0.5 * self.qdot_end)
+        inner = self.dt * (self.steps - 1)
+        lo, hi = self.q0 + ends + inner * self.qdot_min, self.q0 + ends + inner * self.qdot_max
+        return max(lo, self.q_min), min(hi, self.q_max)
+
+    def check_feasible(self, env: dict[str, float]) -> None:
+        """Raise InfeasibleProblemError naming the constraints in conflict (no solver needed)."""
+        q_end = self.terminal_position(env)
+        if not (self.q_min <= q_end <= self.q_max):
+            raise InfeasibleProblemError(
+                f"terminal position q_end = {q_end:.4g} m lies outside the position limits "
+                f"[q_min, q_max] = [{self.q_min}, {self.q_max}] m", ["terminal.q_end", "limits.q_min/q_max"])
+        if not (self.qdot_min <= self.qdot_end <= self.qdot_max):
+            raise InfeasibleProblemError(
+                f"terminal velocity qdot_end = {self.qdot_end} m/s lies outside the velocity limits "
+                f"[qdot_min, qdot_max] = [{self.qdot_min}, {self.qdot_max}] m/s",
+                ["terminal.qdot_end", "limits.qdot_min/qdot_max"])
+        lo, hi = self.reachable_range()
+        if not (lo - 1e-12 <= q_end <= hi + 1e-12):
+            side = "qdot_max" if q_end > hi else "qdot_min"
+            raise InfeasibleProblemError(
+                f"terminal position q_end = {q_end:.4g} m is out of reach: starting at q0 = {self.q0} m "
+                f"with velocity limits [{self.qdot_min}, {self.qdot_max}] m/s, {self.steps} steps of "
+                f"{self.dt} s reach only [{lo:.4g}, {hi:.4g}] m; raise {side}, lengthen the horizon, "
+                f"or move q_end", ["terminal.q_end", f"limits.{side}", "horizon.steps"])
+
+    # -- variants ----------------------------------------------------------------------
+    def with_overrides(self, **values: Any) -> "Problem":
+        """A copy with fields replaced (None values ignored); environment variables by name."""
+        values = {k: v for k, v in values.items() if v is not None}
+        env = dict(self.environment)
+        fields = {f.name for f in dataclasses.fields(self)}
+        changes: dict[str, Any] = {}
+        for k, v in values.items():
+            if k in fields and k != "environment":
+                changes[k] = v
+            elif k in env:
+                env[k] = _env_value(k, v, self.source)
+            else:
+                raise ProblemError(f"unknown problem field {k!r}; fields: {sorted(fields - {'environment', 'source'})}, "
+                                   f"environment: {sorted(env)}")
+        return dataclasses.replace(self, environment=env, **changes)
+
+    def limits_key(self) -> dict[str, Any]:
+        """Everything a trained generator depends on except the environment values."""
+        return {k: getattr(self, k) for k in ("steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max",
+                                               "f_min", "f_max", "q_end", "qdot_end")}
+
+    def to_dict(self) -> dict[str, Any]:
+        d = dataclasses.asdict(self)
+        d["environment"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.environment.items()}
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict[str, Any]) -> "Problem":
+        d = dict(d)
+        d["environment"] = {k: _env_value(k, v, d.get("source", "")) for k, v in d.get("environment", {}).items()}
+        return cls(**d)
+
+
+def _env_value(name: str, v: Any, source: str) -> EnvValue:
+    if isinstance(v, (list, tuple)):
+        if len(v) != 2:
+            raise ProblemError(f"environment {name} = {v!r}{' in ' + source if source else ''} must be a number or [lo, hi]")
+        return (float(v[0]), float(v[1]))
+    if isinstance(v, str):
+        parts = v.split(",")
+        try:
+            vals = [float(p) for p in parts]
+        except ValueError:
+            raise ProblemError(f"environment {name} = {v!r} must be a number or lo,hi") from None
+        return _env_value(name, vals[0] if len(vals) == 1 else vals, source)
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        raise ProblemError(f"environment {name} = {v!r}{' in ' + source if source else ''} must be a number or [lo, hi]")
+    return float(v)
+
+
+def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
+    if path in seen:
+        raise ProblemError(f"{path}: `base` files form a cycle ({' -> '.join(map(str, seen + (path,)))})")
+    if not path.exists():
+        raise ProblemError(f"{path}: no such problem file (shipped ones are in problems/)")
+    try:
+        raw = tomllib.loads(path.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise ProblemError(f"{path}: not valid TOML ({exc})") from None
+    flat: dict[str, Any] = {}
+    if "base" in raw:
+        flat = _read_toml((path.parent / str(raw.pop("base"))).resolve(), seen + (path,))
+    for key, value in raw.items():
+        if key in SECTIONS:
+            if not isinstance(value, dict):
+                raise ProblemError(f"{path}: [{key}] must be a table")
+            for k, v in value.items():
+                if k not in SECTIONS[key]:
+                    raise ProblemError(f"{path}: unknown key {k!r} in [{key}]; allowed: {list(SECTIONS[key])}")
+                flat[k] = v
+        elif key == "environment":
+            if not isinstance(value, dict):
+                raise ProblemError(f"{path}: [environment] must be a table")
+            flat["environment"] = dict(value)  # a derived file replaces the whole environment
+        elif key in ("name", "description"):
+            flat[key] = value
+        else:
+            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, base, environment, "
+                               f"{', '.join(f'[{s}]' for s in SECTIONS)}")
+    return flat
+
+
+def load_problem(path: str | Path) -> Problem:
+    """Read and validate a problem file; every error is a ProblemError naming the file."""
+    p = Path(path)
+    flat = _read_toml(p.resolve())
+    flat.setdefault("name", p.stem)
+    flat["source"] = str(path)
+    try:
+        return Problem.from_dict(flat)
+    except TypeError as exc:  # a wrong type the dataclass cannot hold
+        raise ProblemError(f"{path}: {exc}") from None

@@ -1,0 +1,75 @@
+"""What a planner returns, and the constraint residuals measured on the plan itself.
+
+Residuals are computed from the final plan against the problem's original limits, for both
+planners, the same way: a planner's own bookkeeping (Ipopt's scaled, relaxed bounds; the
+generator's penalty) is never what is reported.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from judgeopt.planners.dynamics import dynamics_residual
+from judgeopt.planners.problem import Problem
+from judgeopt.trajectory import Plan
+
+
+def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) -> dict[str, float]:
+    """Worst violation of each constraint (>= 0; 0 when satisfied), in the constraint's units."""
+    def over(values: np.ndarray, bound: float) -> float:
+        return float(max(0.0, np.max(values - bound)))
+
+    def under(values: np.ndarray, bound: float) -> float:
+        return float(max(0.0, np.max(bound - values)))
+
+    return {
+        "q_min": under(plan.y, problem.q_min), "q_max": over(plan.y, problem.q_max),
+        "qdot_min": under(plan.ydot, problem.qdot_min), "qdot_max": over(plan.ydot, problem.qdot_max),
+        "f_min": under(plan.f, problem.f_min), "f_max": over(plan.f, problem.f_max),
+        "q_end": abs(float(plan.y[-1]) - problem.terminal_position(env)),
+        "qdot_end": abs(float(plan.ydot[-1]) - problem.qdot_end),
+        "start": max(abs(float(plan.y[0]) - problem.q0), abs(float(plan.ydot[0]) - problem.qdot0)),
+        "dynamics": dynamics_residual(plan.y, plan.ydot, plan.dt),
+    }
+
+
+@dataclass
+class PlanResult:
+    """One planner's answer for one environment."""
+
+    method: str
+    env: dict[str, float]
+    plan: Plan | None
+    predicted_success: float | None
+    status: str  # "solved", "not_converged", "infeasible", ...
+    solve_time_s: float
+    residuals: dict[str, float] = field(default_factory=dict)
+    iterations: int | None = None
+    message: str = ""
+    simulated_success: bool | None = None
+    info: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def max_constraint_violation(self) -> float | None:
+        return max(self.residuals.values()) if self.residuals else None
+
+    @property
+    def worst_constraint(self) -> str | None:
+        return max(self.residuals, key=self.residuals.get) if self.residuals else None
+
+    def to_json(self) -> dict[str, Any]:
+        d: dict[str, Any] = {
+            "method": self.method, "status": self.status, "message": self.message, "environment": self.env,
+            "predicted_success": self.predicted_success, "simulated_success": self.simulated_success,
+            "max_constraint_violation": self.max_constraint_violation, "worst_constraint": self.worst_constraint,
+            "residuals": self.residuals, "solve_time_s": self.solve_time_s, "iterations": self.iterations,
+        }
+        if self.plan is not None:
+            p = self.plan
+            d.update(t=p.t.tolist(), q=p.y.tolist(), qdot=p.ydot.tolist(), f=p.f.tolist(),
+                     units={"t": "s", "q": "m", "qdot": "m/s", "f": "N"})
+        d.update({k: v for k, v in self.info.items() if k not in d})
+        return d
