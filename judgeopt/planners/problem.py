@@ -75,8 +75,8 @@ class Problem:
     P: float = 1.0
     Q: float = 1000.0
     R: float = 1000.0
-    acc_weight: float = 1e-4
-    force_rate_weight: float = 1e-7
+    acc_weight: float = 1e-3
+    force_rate_weight: float = 1e-6
     p_min: float | None = None  # optional hard constraint y_judge >= p_min in the direct solve
     max_iter: int = 300
     tol: float = 1e-6
