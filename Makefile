@@ -1,21 +1,25 @@
 # Every target sets up .venv first (scripts/setup.sh: idempotent, quick when already done).
-.PHONY: setup run test bench data
+.PHONY: setup run test bench data generators
 BIN := .venv/bin
 
 setup:
 	@bash scripts/setup.sh
 
-# the main job (until the planners land): summarise the shipped data, replay and render two scoops
+# the main job: plan a scoop under a 0.4 m/s limit with the shipped models, replay it in simulation
 run: setup
-	$(BIN)/judgeopt inspect data/train.h5
-	$(BIN)/judgeopt plot-data --data data/train.h5 --out out/velocity_force.png
-	$(BIN)/judgeopt render --data data/test.h5 --successes 1 --failures 1 --out out/renders
+	$(BIN)/judgeopt solve --qdot-max 0.4 --plot out/plan.png --out out/plan.csv
 
 test: setup
 	$(BIN)/python -m pytest -q
 
 bench: setup
 	$(BIN)/python benchmarks/bench_rollout.py
+	$(BIN)/python benchmarks/bench_planners.py --n 100
+
+# remake the shipped generators (about 7 min each on one core)
+generators: setup
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --out models/generator_paper_sim
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --out models/generator_paper_sim_slow
 
 # remake the shipped datasets (about 30 min on 2 cores; resumable)
 data: setup

@@ -196,7 +196,7 @@ def test_residuals_measure_soft_violations():
 
 # -- the command -------------------------------------------------------------------------------
 def test_solve_json_schema_csv_and_plot(tmp_path, capsys):
-    rc = main(["solve", "--qdot-max", "0.4", "--method", "direct", "--y-obj", "0.2", "--json",
+    rc = main(["solve", "--qdot-max", "0.4", "--method", "direct", "--y-obj", "0.2", "--json", "--no-simulate",
                "--out", str(tmp_path / "plan.csv"), "--plot", str(tmp_path / "plan.png")])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["status"] == "ok"
@@ -227,7 +227,7 @@ def test_solve_errors_are_one_line(capsys, tmp_path):
 @pytest.mark.slow
 def test_solve_both_methods_in_simulation(capsys):
     """The README's main command, end to end, on the shipped models."""
-    rc = main(["solve", "--qdot-max", "0.4", "--simulate", "--json"])
+    rc = main(["solve", "--qdot-max", "0.4", "--json"])
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and [r["method"] for r in out["results"]] == ["amortized", "direct"]
     assert out["generator"] is not None

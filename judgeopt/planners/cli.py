@@ -74,6 +74,13 @@ def _table(results) -> str:
     return "\n".join(lines)
 
 
+def _plan_rows(plan, every: int = 5) -> str:
+    rows = ["   t [s]   q [m]  q̇ [m/s]   f [N]"]
+    for k in range(0, plan.horizon + 1, every):
+        rows.append(f"{plan.t[k]:8.2f} {plan.y[k]:7.3f} {plan.ydot[k]:8.3f} {plan.f[k]:7.1f}")
+    return "\n".join(rows)
+
+
 def _with_method(path: str, method: str, several: bool) -> Path:
     p = Path(path)
     return p.with_name(f"{p.stem}_{method}{p.suffix}") if several else p
@@ -130,6 +137,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         for note in planners.notes:
             print(f"note: {note}")
         print(_table(results))
+        shown = next((r for r in reversed(results) if r.plan is not None), None)
+        if shown is not None:
+            print(f"\n{shown.method} plan (every 5th of {shown.plan.horizon + 1} samples):")
+            print(_plan_rows(shown.plan))
         for r in results:
             if r.status not in ("solved", "generated"):
                 print(f"{r.method}: {r.message}")
@@ -214,7 +225,8 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     add_problem_arguments(s)
     s.add_argument("--method", choices=("direct", "amortized", "both"), default="both",
                    help="both (default): the generator's plan warm-starts the direct solve")
-    s.add_argument("--simulate", action="store_true", help="replay each plan in PyBullet and report the outcome")
+    s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
+                   help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
     s.add_argument("--out", help="write the plan as CSV at 1 kHz (one file per method: NAME_METHOD.csv)")
     s.add_argument("--plot", help="write q, q̇ and f against time with the allowed region (PNG)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
