@@ -141,9 +141,18 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if shown is not None:
             print(f"\n{shown.method} plan (every 5th of {shown.plan.horizon + 1} samples):")
             print(_plan_rows(shown.plan))
+        from judgeopt.sim.rollout import RolloutConfig
+
+        rc = RolloutConfig()
         for r in results:
             if r.status not in ("solved", "generated"):
                 print(f"{r.method}: {r.message}")
+            if r.simulated_success is not None:
+                print(f"{r.method}, simulated: the object rose {100 * r.info['sim_object_rise']:.1f} cm and ended "
+                      f"{100 * r.info['sim_offset_from_blade']:.1f} cm from the blade centre, "
+                      f"{'on' if r.info['sim_on_blade'] else 'off'} the blade "
+                      f"(success: rise >= {100 * rc.success_rise:g} cm, on the blade, off the plate, "
+                      f"within {100 * rc.max_overhang:g} cm)")
         for f in files:
             print(f"wrote {f}")
         print(f"total {time.perf_counter() - t0:.1f} s")

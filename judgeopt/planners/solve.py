@@ -106,5 +106,8 @@ class Planners:
         if simulator is not None:
             for r in results:
                 if r.plan is not None:
-                    r.simulated_success = bool(simulator.run(r.plan, env["y_obj"], env["mu"]).success)
+                    out = simulator.run(r.plan, env["y_obj"], env["mu"])
+                    r.simulated_success = bool(out.success)
+                    r.info.update(sim_object_rise=out.object_rise, sim_offset_from_blade=out.info["offset_from_blade"],
+                                  sim_on_blade=out.info["on_blade"], sim_on_plate=out.info["on_plate"])
         return results
