@@ -183,6 +183,9 @@ def build_parser() -> argparse.ArgumentParser:
     from judgeopt.planners.cli import add_planner_commands
 
     add_planner_commands(sub)
+    from judgeopt.evaluate.cli import add_evaluate_commands
+
+    add_evaluate_commands(sub)
     return p
 
 

@@ -18,41 +18,65 @@ from judgeopt.planners.problem import Problem
 _WORKERS: dict[str, Any] = {}
 
 
-def _worker(problem: Problem, methods: tuple[str, ...], models_dir: str):
-    from judgeopt.planners.solve import Planners
+def _simulator():
     from judgeopt.sim.rollout import Simulator
 
-    key = json.dumps([problem.to_dict(), methods, models_dir], sort_keys=True)
+    if "sim" not in _WORKERS:
+        _WORKERS["sim"] = Simulator()
+    return _WORKERS["sim"]
+
+
+def _planners(problem: Problem, methods: tuple[str, ...], models_dir: str, judge: str | None):
+    from judgeopt.planners.solve import Planners
+
+    key = json.dumps([problem.to_dict(), methods, models_dir, judge], sort_keys=True)
     if key not in _WORKERS:
-        if "sim" not in _WORKERS:
-            _WORKERS["sim"] = Simulator()
-        _WORKERS[key] = Planners.load(problem, methods, models_dir=models_dir)
-    return _WORKERS[key], _WORKERS["sim"]
+        _WORKERS[key] = Planners.load(problem, methods, judge=judge, models_dir=models_dir)
+    return _WORKERS[key]
 
 
-def _run(problem: Problem, methods: tuple[str, ...], models_dir: str, envs: np.ndarray, simulate: bool) -> list[dict]:
+def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simulate: bool) -> list[dict]:
+    """The paper's "random actions" baseline: the demonstration generator's random scoops."""
+    from judgeopt.data.commands import random_command
+    from judgeopt.planners.result import PlanResult, constraint_residuals
+
+    rows = []
+    for i, e in enumerate(envs):
+        env = dict(zip(problem.env_names, map(float, e)))
+        plan = random_command(np.random.default_rng([seed, first + i]), env["y_obj"])
+        r = PlanResult("random", env, plan, None, "sampled", 0.0, constraint_residuals(problem, plan, env))
+        if simulate:
+            r.simulated_success = bool(_simulator().run(plan, env["y_obj"], env["mu"]).success)
+        rows.append({**r.to_json(), "env_index": first + i})
+    return rows
+
+
+def _run(problem: Problem, methods: tuple[str, ...], models_dir: str, envs: np.ndarray, simulate: bool,
+         judge: str | None = None, first: int = 0, seed: int = 0) -> list[dict]:
     import torch
 
     torch.set_num_threads(1)
-    planners, sim = _worker(problem, methods, models_dir)
+    if methods == ("random",):
+        return _random_rows(problem, envs, first, seed, simulate)
+    planners = _planners(problem, methods, models_dir, judge)
+    sim = _simulator() if simulate else None
     rows = []
-    for e in envs:
-        for r in planners.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim if simulate else None):
-            d = r.to_json()
-            d["q_mean_force"] = float(np.mean(r.plan.f)) if r.plan is not None else None
-            rows.append(d)
+    for i, e in enumerate(envs):
+        for r in planners.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim):
+            rows.append({**r.to_json(), "env_index": first + i})
     return rows
 
 
 def plan_many(problem: Problem, envs: np.ndarray, methods: Sequence[str] = ("amortized", "direct"),
               simulate: bool = True, n_jobs: int = -1, models_dir: str = "models", chunk: int = 5,
-              progress: bool = True) -> list[dict]:
+              progress: bool = True, judge: str | None = None) -> list[dict]:
     """One JSON-style row per (environment, method), in environment order."""
     from judgeopt.data.collect import _backend
 
     envs = np.asarray(envs, dtype=float)
     parts = [envs[i:i + chunk] for i in range(0, len(envs), chunk)]
-    jobs = (delayed(_run)(problem, tuple(methods), models_dir, p, simulate) for p in parts)
+    jobs = (delayed(_run)(problem, tuple(methods), models_dir, p, simulate, judge, i * chunk)
+            for i, p in enumerate(parts))
     out: list[list[dict]] = []
     with _backend(None, n_jobs):
         it = Parallel(return_as="generator")(jobs)

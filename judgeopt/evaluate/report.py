@@ -1,0 +1,108 @@
+"""Summaries of an evaluated table: Markdown, CSV and a bar chart beside the paper's figures."""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from judgeopt.evaluate.tables import Row
+
+
+def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """95 % Wilson interval of a success rate: honest error bars for 100 trials."""
+    if n == 0:
+        return (math.nan, math.nan)
+    p = k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return (c - h, c + h)
+
+
+def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
+    out = []
+    for row in rows:
+        rs = [r for r in results[row.key] if r.get("simulated_success") is not None]
+        k, n = sum(r["simulated_success"] for r in rs), len(rs)
+        lo, hi = wilson(k, n)
+        pred = [r["predicted_success"] for r in rs if r.get("predicted_success") is not None]
+        out.append({"row": row.name, "method": row.method, "judge": row.judge or "-",
+                    "mu": f"[{row.mu[0]:g}, {row.mu[1]:g}]", "n": n, "successes": k,
+                    "success_pct": 100 * k / n if n else math.nan, "ci95_low_pct": 100 * lo, "ci95_high_pct": 100 * hi,
+                    "paper_pct": row.paper,
+                    "predicted_mean": float(np.mean(pred)) if pred else None,
+                    "violation_max": max((r["max_constraint_violation"] for r in rs), default=None),
+                    "time_median_s": float(np.median([r["solve_time_s"] for r in rs])) if rs else None})
+    return out
+
+
+def markdown(summary: list[dict], title: str) -> str:
+    lines = [f"### {title}", "",
+             "| row | planner | mu | simulated success | 95 % CI | paper | mean predicted | worst violation | median time |",
+             "|---|---|---|---|---|---|---|---|---|"]
+    for s in summary:
+        pred = f"{s['predicted_mean']:.3f}" if s["predicted_mean"] is not None else "-"
+        viol = f"{s['violation_max']:.1e}" if s["violation_max"] is not None else "-"
+        t = s["time_median_s"]
+        tt = "-" if t is None or s["method"] == "random" else (f"{t * 1e3:.2f} ms" if t < 1 else f"{t:.2f} s")
+        paper = f"{s['paper_pct']:g} %" if s["paper_pct"] is not None else "-"
+        lines.append(f"| {s['row']} | {s['method']} | {s['mu']} | {s['successes']}/{s['n']} ({s['success_pct']:.0f} %) "
+                     f"| {s['ci95_low_pct']:.0f}-{s['ci95_high_pct']:.0f} % | {paper} | {pred} | {viol} | {tt} |")
+    return "\n".join(lines) + "\n"
+
+
+def _atomic_text(path: Path, text: str) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
+
+
+def write_report(summary: list[dict], out: Path, name: str, title: str) -> list[Path]:
+    out = Path(out)
+    md = out / f"{name}.md"
+    _atomic_text(md, markdown(summary, title))
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(summary[0]))
+    w.writeheader()
+    w.writerows(summary)
+    csv_path = out / f"{name}.csv"
+    _atomic_text(csv_path, buf.getvalue())
+    return [md, csv_path, plot(summary, out / f"{name}.png", title)]
+
+
+def plot(summary: list[dict], path: Path, title: str) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    labels = [f"{s['row']}\n{s['method']}" for s in summary]
+    x = np.arange(len(summary))
+    ours = np.array([s["success_pct"] for s in summary])
+    err = np.array([[s["success_pct"] - s["ci95_low_pct"] for s in summary],
+                    [s["ci95_high_pct"] - s["success_pct"] for s in summary]])
+    paper = np.array([np.nan if s["paper_pct"] is None else s["paper_pct"] for s in summary])
+    fig, ax = plt.subplots(figsize=(max(6, 1.0 * len(summary)), 4))
+    ax.bar(x - 0.2, ours, 0.4, yerr=err, capsize=3, label="judgeopt (simulated, 95 % CI)")
+    ax.bar(x + 0.2, paper, 0.4, color="0.7", label="paper")
+    ax.set_xticks(x, labels, fontsize=7, rotation=30, ha="right")
+    ax.set_ylabel("success rate [%]")
+    ax.set_ylim(0, 105)
+    ax.set_title(title, fontsize=10)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".png")
+    os.close(fd)
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    os.replace(tmp, path)
+    return path

@@ -1,0 +1,120 @@
+"""The paper's evaluation tables, measured in simulation: which rows, and how they are run.
+
+A table is a list of rows; a row is a planner (or the random baseline) with a judge, on
+environments drawn from a range. Rows of one table that share a range share the very same
+environments (seeded), so differences between rows are the planners', not the draws'.
+Work is split into chunks of environments, run in parallel processes (or on a Dask cluster),
+and each finished chunk is written to OUT/partial/ at once: a rerun skips what is done.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from judgeopt.planners.batch import _run
+from judgeopt.planners.problem import Problem
+
+Y_RANGE = (0.10, 0.28)  # the paper's Table 4 / 5 object positions
+
+
+@dataclass(frozen=True)
+class Row:
+    """One line of a table: `method` in amortized | direct | random, with `judge` (a model path)."""
+
+    name: str
+    method: str
+    judge: str | None
+    mu: tuple[float, float] = (1.0, 3.0)
+    paper: float | None = None  # the paper's success rate for this row, in %
+
+    @property
+    def key(self) -> str:
+        slug = "".join(c if c.isalnum() else "_" for c in self.name)
+        return f"{slug}__{self.method}__mu{self.mu[0]:g}-{self.mu[1]:g}"
+
+
+def table4() -> list[Row]:
+    """Paper Table 4: what the judge knows, against random actions (mu in [1, 3])."""
+    rows = []
+    for name, judge, paper in (("proposed (y_obj, mu)", "models/judge_default", 100.0),
+                               ("judge sees y_obj only", "models/judge_yobj_only", 90.0),
+                               ("inverted labels", "models/judge_inverted", 0.0)):
+        rows += [Row(name, m, judge, paper=paper) for m in ("amortized", "direct")]
+    rows.append(Row("random actions", "random", None, paper=28.0))
+    return rows
+
+
+TABLE5_RANGES = (((1.0, 3.0), 100.0), ((3.0, 3.5), 100.0), ((0.5, 1.0), 100.0), ((3.5, 4.0), 81.0),
+                 ((0.05, 0.5), 45.0))
+
+
+def table5() -> list[Row]:
+    """Paper Table 5: friction inside and outside the training range, both planners."""
+    return [Row(f"mu in [{lo:g}, {hi:g}]", m, "models/judge_default", (lo, hi), paper)
+            for (lo, hi), paper in TABLE5_RANGES for m in ("amortized", "direct")]
+
+
+TABLES = {"table4": table4, "table5": table5}
+
+
+def environments(problem: Problem, row: Row, n: int, seed: int) -> np.ndarray:
+    """The row's environments: seeded by the mu range only, so rows with the same range share them."""
+    p = problem.with_overrides(y_obj=list(Y_RANGE), mu=list(row.mu))
+    rng = np.random.default_rng([seed, int(round(row.mu[0] * 1000)), int(round(row.mu[1] * 1000))])
+    return p.sample_env(rng, n)
+
+
+def _write_json(path: Path, data) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+    with os.fdopen(fd, "w") as fh:
+        json.dump(data, fh)
+    os.replace(tmp, path)
+
+
+def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n_jobs: int = -1,
+              scheduler: str | None = None, chunk: int = 10, models_dir: str = "models",
+              progress: bool = True) -> dict[str, list[dict]]:
+    """Every row over n environments; results per row key, resumable from out/partial/."""
+    from judgeopt.data.collect import _backend
+
+    partial = Path(out) / "partial"
+    todo, done = [], {}
+    for row in rows:
+        envs = environments(problem, row, n, seed)
+        for first in range(0, n, chunk):
+            path = partial / f"{row.key}__{first:05d}_n{n}_s{seed}.json"
+            if path.exists():
+                done[path] = json.loads(path.read_text())
+            else:
+                todo.append((path, row, envs[first:first + chunk], first))
+    if todo:
+        jobs = (delayed(_with_path)(path, problem, row, e, first, seed, models_dir) for path, row, e, first in todo)
+        with _backend(scheduler, n_jobs):
+            it = Parallel(return_as="generator_unordered")(jobs)
+            if progress:
+                from tqdm import tqdm
+
+                it = tqdm(it, total=len(todo), initial=0, desc=f"evaluate ({len(done)} chunks already done)",
+                          unit="chunk")
+            for path, result in it:
+                _write_json(path, result)
+                done[path] = result
+    results: dict[str, list[dict]] = {row.key: [] for row in rows}
+    for path, result in done.items():
+        results[path.name.rsplit("__", 1)[0]] += result
+    for key in results:
+        results[key].sort(key=lambda r: r["env_index"])
+    return results
+
+
+def _with_path(path: Path, problem: Problem, row: Row, envs: np.ndarray, first: int, seed: int,
+               models_dir: str) -> tuple[Path, list[dict]]:
+    return path, _run(problem, (row.method,), models_dir, envs, True, row.judge, first, seed)
