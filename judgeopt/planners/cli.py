@@ -126,6 +126,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.json:
         print(json.dumps({"status": "infeasible" if infeasible else "ok", "problem": problem.to_dict(),
                           "environment": env, "judge": str(planners.judge_path),
+                          "judge_sha256": planners.judge_meta["weights_sha256"],
                           "generator": str(planners.generator_path) if planners.generator_path else None,
                           "notes": planners.notes, "files": [str(f) for f in files],
                           "results": [r.to_json() for r in results]}))
