@@ -133,6 +133,28 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_import_demos(args: argparse.Namespace) -> int:
+    from judgeopt.data.dataset import save
+    from judgeopt.data.importer import ImportSpec, import_csv
+
+    paths = []
+    for p in map(Path, args.files):
+        paths += sorted(p.glob("*.csv")) if p.is_dir() else [p]
+    if not paths:
+        raise CLIError(f"no CSV files in {args.files}")
+    env_names = tuple(n for n in args.env_names.split(",") if n)
+    ds, errors = import_csv(paths, ImportSpec(env_names, dt=args.dt, horizon=args.horizon))
+    for e in errors:
+        print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
+    if ds is None:
+        raise CLIError(f"nothing imported: all {len(paths)} file(s) were bad (reasons above)")
+    ds.meta["command"] = _command_line()
+    save(ds, args.out)
+    print(f"wrote {args.out}: {ds.n} demonstrations from {len(paths) - len(errors)} of {len(paths)} file(s), "
+          f"success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, N = {ds.horizon}")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="judgeopt", description=__doc__)
     p.add_argument("--version", action="version", version=f"judgeopt {__version__}")
@@ -176,6 +198,18 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--data", required=True)
     d.add_argument("--out", default="velocity_force.png")
     d.set_defaults(func=cmd_plot_data)
+
+    m = sub.add_parser("import-demos", help="import recorded demonstrations (CSV) into the dataset format",
+                       description="CSV columns: t [s], y [m], optional ydot [m/s], f [N], label (success/failure), "
+                       "the environment columns, optional demo_id (several demonstrations in one table). Each "
+                       "demonstration is validated and resampled to the planner's period; bad files are reported "
+                       "(file, row, column) and the good ones imported.")
+    m.add_argument("files", nargs="+", help="CSV files or folders of them")
+    m.add_argument("--out", required=True, help="HDF5 dataset to write")
+    m.add_argument("--env-names", default="y_obj,mu", help="environment columns, comma-separated (default y_obj,mu)")
+    m.add_argument("--dt", type=float, default=0.05, help="planner sample period in s")
+    m.add_argument("--horizon", type=int, default=30, help="planner steps N")
+    m.set_defaults(func=cmd_import_demos)
 
     from judgeopt.judge.cli import add_judge_commands
 
