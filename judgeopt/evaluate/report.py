@@ -87,8 +87,8 @@ def plot(summary: list[dict], path: Path, title: str) -> Path:
     labels = [f"{s['row']}\n{s['method']}" for s in summary]
     x = np.arange(len(summary))
     ours = np.array([s["success_pct"] for s in summary])
-    err = np.array([[s["success_pct"] - s["ci95_low_pct"] for s in summary],
-                    [s["ci95_high_pct"] - s["success_pct"] for s in summary]])
+    err = np.clip([[s["success_pct"] - s["ci95_low_pct"] for s in summary],
+                   [s["ci95_high_pct"] - s["success_pct"] for s in summary]], 0, None)  # rounding at 0 % / 100 %
     paper = np.array([np.nan if s["paper_pct"] is None else s["paper_pct"] for s in summary])
     fig, ax = plt.subplots(figsize=(max(6, 1.0 * len(summary)), 4))
     ax.bar(x - 0.2, ours, 0.4, yerr=err, capsize=3, label="judgeopt (simulated, 95 % CI)")
