@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from judgeopt.evaluate.tables import Row
+from judgeopt.judge.store import _atomic_write
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -58,11 +59,7 @@ def markdown(summary: list[dict], title: str) -> str:
 
 
 def _atomic_text(path: Path, text: str) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+    _atomic_write(path, text.encode())
 
 
 def write_report(summary: list[dict], out: Path, name: str, title: str) -> list[Path]:

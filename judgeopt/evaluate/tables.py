@@ -10,14 +10,13 @@ and each finished chunk is written to OUT/partial/ at once: a rerun skips what i
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from joblib import Parallel, delayed
 
+from judgeopt.judge.store import _atomic_write
 from judgeopt.planners.batch import _run
 from judgeopt.planners.problem import Problem
 
@@ -72,11 +71,7 @@ def environments(problem: Problem, row: Row, n: int, seed: int) -> np.ndarray:
 
 
 def _write_json(path: Path, data) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        json.dump(data, fh)
-    os.replace(tmp, path)
+    _atomic_write(path, json.dumps(data).encode())
 
 
 def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n_jobs: int = -1,

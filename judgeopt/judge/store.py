@@ -71,21 +71,20 @@ def save_judge(model: Judge, path: str | Path, meta: dict[str, Any] | None = Non
     `meta` adds free keys (metrics, training config, dataset hashes, command, seed); the
     architecture, format, normalisation and weights hash are filled in here.
     """
+    record = {"format": FORMAT, "format_version": VERSION, "package_version": __version__,
+              "config": model.config.to_dict(), "normalization": model.normalization(), **(meta or {})}
+    return write_model(model, path, record)
+
+
+def write_model(model: torch.nn.Module, path: str | Path, record: dict[str, Any]) -> tuple[Path, Path]:
+    """The weights to `<path>.pt`, then `record` plus the weights' name and sha256 to
+    `<path>.json`, each atomically (shared by every saved model: judges and generators)."""
     pt, js = model_paths(path)
     buf = io.BytesIO()
     torch.save({k: v.detach().cpu() for k, v in model.state_dict().items()}, buf)
     data = buf.getvalue()
     _atomic_write(pt, data)
-    record = {
-        "format": FORMAT,
-        "format_version": VERSION,
-        "package_version": __version__,
-        "config": model.config.to_dict(),
-        "normalization": model.normalization(),
-        "weights_file": pt.name,
-        "weights_sha256": hashlib.sha256(data).hexdigest(),
-        **(meta or {}),
-    }
+    record = {**record, "weights_file": pt.name, "weights_sha256": hashlib.sha256(data).hexdigest()}
     _atomic_write(js, (json.dumps(record, indent=2, sort_keys=False) + "\n").encode())
     return pt, js
 

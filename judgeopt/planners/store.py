@@ -16,7 +16,7 @@ from typing import Any
 import torch
 
 from judgeopt import __version__
-from judgeopt.judge.store import _atomic_write, model_paths
+from judgeopt.judge.store import model_paths, write_model
 from judgeopt.planners.generator import Generator, GeneratorConfig
 from judgeopt.planners.problem import Problem, ProblemError
 
@@ -29,16 +29,8 @@ class GeneratorFileError(ProblemError):
 
 
 def save_generator(gen: Generator, path: str | Path, meta: dict[str, Any] | None = None) -> tuple[Path, Path]:
-    pt, js = model_paths(path)
-    buf = io.BytesIO()
-    torch.save({k: v.detach().cpu() for k, v in gen.state_dict().items()}, buf)
-    data = buf.getvalue()
-    _atomic_write(pt, data)
-    record = {"format": FORMAT, "format_version": VERSION, "package_version": __version__,
-              "config": gen.config.to_dict(), "problem": gen.problem.to_dict(), "weights_file": pt.name,
-              "weights_sha256": hashlib.sha256(data).hexdigest(), **(meta or {})}
-    _atomic_write(js, (json.dumps(record, indent=2) + "\n").encode())
-    return pt, js
+    return write_model(gen, path, {"format": FORMAT, "format_version": VERSION, "package_version": __version__,
+                                    "config": gen.config.to_dict(), "problem": gen.problem.to_dict(), **(meta or {})})
 
 
 def load_generator_meta(path: str | Path) -> dict[str, Any]:
