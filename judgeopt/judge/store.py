@@ -89,24 +89,50 @@ def write_model(model: torch.nn.Module, path: str | Path, record: dict[str, Any]
     return pt, js
 
 
-def load_meta(path: str | Path) -> dict[str, Any]:
-    """The JSON metadata, validated for format and the keys loading needs."""
+def read_meta(path: str | Path, fmt: str = FORMAT, version: int = VERSION,
+              required: Sequence[str] = ("config", "weights_sha256"), error: type[Exception] = None,
+              hint: str = "train one with `judgeopt train-judge`", kind: str = "model") -> dict[str, Any]:
+    """A model's JSON metadata, validated for format, version and the keys loading needs
+    (shared by every saved model; `error` is the model kind's file error)."""
+    error = error or JudgeFileError
     _, js = model_paths(path)
     if not js.exists():
-        raise JudgeFileError(f"{js}: no such model metadata file (train one with `judgeopt train-judge`)")
+        raise error(f"{js}: no such {kind} metadata file ({hint})")
     try:
         meta = json.loads(js.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise JudgeFileError(f"{js}: corrupt model metadata, not valid JSON ({exc})") from exc
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise error(f"{js}: corrupt {kind} metadata, not valid JSON ({exc})") from exc
+    if not isinstance(meta, dict) or meta.get("format") != fmt:
         got = meta.get("format") if isinstance(meta, dict) else type(meta).__name__
-        raise JudgeFileError(f"{js}: not a judgeopt judge metadata file (format is {got!r})")
-    if int(meta.get("format_version", -1)) > VERSION:
-        raise JudgeFileError(f"{js}: format version {meta['format_version']} is newer than this judgeopt reads ({VERSION})")
-    missing = [k for k in ("config", "weights_sha256") if k not in meta]
+        raise error(f"{js}: not a judgeopt {fmt.removeprefix('judgeopt-')} metadata file (format is {got!r})")
+    if int(meta.get("format_version", -1)) > version:
+        raise error(f"{js}: format version {meta['format_version']} is newer than this judgeopt reads ({version})")
+    missing = [k for k in required if k not in meta]
     if missing:
-        raise JudgeFileError(f"{js}: metadata lacks {missing}")
+        raise error(f"{js}: metadata lacks {missing}")
     return meta
+
+
+def read_weights(path: str | Path, meta: dict[str, Any], error: type[Exception] = None,
+                 check_hash: bool = True) -> dict[str, Any]:
+    """The state_dict next to the metadata, checked against its recorded sha256."""
+    error = error or JudgeFileError
+    pt, js = model_paths(path)
+    if not pt.exists():
+        raise error(f"{pt}: no such weights file (its metadata {js.name} exists)")
+    data = pt.read_bytes()
+    if check_hash and hashlib.sha256(data).hexdigest() != meta["weights_sha256"]:
+        raise error(f"{pt}: weights file does not match the sha256 recorded in {js.name} "
+                    "(damaged, or replaced after saving)")
+    try:
+        return torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
+    except Exception as exc:  # torch raises several types for corrupt files
+        raise error(f"{pt}: corrupt weights file, torch cannot read it ({type(exc).__name__}: {exc})") from exc
+
+
+def load_meta(path: str | Path) -> dict[str, Any]:
+    """The judge's JSON metadata, validated."""
+    return read_meta(path)
 
 
 def load_judge(path: str | Path, check_hash: bool = True) -> tuple[Judge, dict[str, Any]]:
@@ -117,16 +143,7 @@ def load_judge(path: str | Path, check_hash: bool = True) -> tuple[Judge, dict[s
         config = JudgeConfig.from_dict(meta["config"])
     except (TypeError, ValueError) as exc:
         raise JudgeFileError(f"{js}: invalid architecture config ({exc})") from exc
-    if not pt.exists():
-        raise JudgeFileError(f"{pt}: no such weights file (its metadata {js.name} exists)")
-    data = pt.read_bytes()
-    if check_hash and hashlib.sha256(data).hexdigest() != meta["weights_sha256"]:
-        raise JudgeFileError(f"{pt}: weights file does not match the sha256 recorded in {js.name} "
-                             "(damaged, or replaced after saving)")
-    try:
-        state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
-    except Exception as exc:  # torch raises several types for corrupt files
-        raise JudgeFileError(f"{pt}: corrupt weights file, torch cannot read it ({type(exc).__name__}: {exc})") from exc
+    state = read_weights(path, meta, check_hash=check_hash)
     model = Judge(config)
     try:
         model.load_state_dict(state)

@@ -7,16 +7,11 @@ which judge it was trained against.
 
 from __future__ import annotations
 
-import hashlib
-import io
-import json
 from pathlib import Path
 from typing import Any
 
-import torch
-
 from judgeopt import __version__
-from judgeopt.judge.store import model_paths, write_model
+from judgeopt.judge.store import model_paths, read_meta, read_weights, write_model
 from judgeopt.planners.generator import Generator, GeneratorConfig
 from judgeopt.planners.problem import Problem, ProblemError
 
@@ -34,40 +29,20 @@ def save_generator(gen: Generator, path: str | Path, meta: dict[str, Any] | None
 
 
 def load_generator_meta(path: str | Path) -> dict[str, Any]:
-    _, js = model_paths(path)
-    if not js.exists():
-        raise GeneratorFileError(f"{js}: no such generator metadata file (train one with `judgeopt train-generator`)")
-    try:
-        meta = json.loads(js.read_text())
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise GeneratorFileError(f"{js}: corrupt generator metadata, not valid JSON ({exc})") from None
-    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
-        raise GeneratorFileError(f"{js}: not a judgeopt generator file")
-    if int(meta.get("format_version", -1)) > VERSION:
-        raise GeneratorFileError(f"{js}: format version {meta['format_version']} is newer than this judgeopt reads")
-    for k in ("config", "problem", "weights_sha256"):
-        if k not in meta:
-            raise GeneratorFileError(f"{js}: metadata lacks {k!r}")
-    return meta
+    return read_meta(path, FORMAT, VERSION, ("config", "problem", "weights_sha256"), GeneratorFileError,
+                     "train one with `judgeopt train-generator`", kind="generator")
 
 
 def load_generator(path: str | Path) -> tuple[Generator, dict[str, Any]]:
     pt, js = model_paths(path)
     meta = load_generator_meta(path)
-    if not pt.exists():
-        raise GeneratorFileError(f"{pt}: no such weights file (its metadata {js.name} exists)")
-    data = pt.read_bytes()
-    if hashlib.sha256(data).hexdigest() != meta["weights_sha256"]:
-        raise GeneratorFileError(f"{pt}: weights do not match the sha256 recorded in {js.name} (damaged or replaced)")
+    state = read_weights(path, meta, GeneratorFileError)
+    problem = Problem.from_dict({**meta["problem"], "source": str(js)})
     try:
-        problem = Problem.from_dict({**meta["problem"], "source": str(js)})
         gen = Generator(problem, GeneratorConfig(**meta["config"]))
-        state = torch.load(io.BytesIO(data), map_location="cpu", weights_only=True)
         gen.load_state_dict(state)
-    except ProblemError:
-        raise
-    except Exception as exc:  # torch raises several types for corrupt or mismatched weights
-        raise GeneratorFileError(f"{pt}: cannot load ({type(exc).__name__}: {exc})") from None
+    except (RuntimeError, TypeError) as exc:
+        raise GeneratorFileError(f"{pt}: weights do not fit the architecture in {js.name} ({exc})") from None
     return gen.eval(), meta
 
 
