@@ -92,8 +92,7 @@ class DirectPlanner:
         g_term = cs.vertcat((qs[-1] - q_end) / SCALE_Q, (vs[-1] - pr.qdot_end) / SCALE_V)
         traj = cs.reshape(cs.horzcat(qs, vs, f).T, -1, 1)  # row-major [y, ydot, f] per sample
         logit = self.cjudge.fn(traj, env)[0]
-        import os; z = logit - float(os.environ.get('JM', '0'))
-        neg_log_p = cs.fmax(-z, 0) + cs.log1p(cs.exp(-cs.fabs(z)))  # softplus(-logit), stable
+        neg_log_p = cs.fmax(-logit, 0) + cs.log1p(cs.exp(-cs.fabs(logit)))  # softplus(-logit), stable
         obj = pr.P * neg_log_p + pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(cs.diff(f)) / dt
         g = [g_vel, g_pos, g_term]
         if pr.p_min is not None:
