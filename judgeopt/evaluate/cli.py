@@ -1,4 +1,5 @@
-"""`judgeopt evaluate table4|table5`: the paper's tables, measured in simulation."""
+"""`judgeopt evaluate table4|table5|compare`: the paper's tables and the planners side by side,
+measured in simulation."""
 
 from __future__ import annotations
 
@@ -6,7 +7,8 @@ import argparse
 from pathlib import Path
 
 TITLES = {"table4": "Table 4: success rate by what the judge knows (q̇_max = 1.0, y_obj in [0.10, 0.28], mu in [1, 3])",
-          "table5": "Table 5: success rate by friction range (q̇_max = 1.0, y_obj in [0.10, 0.28])"}
+          "table5": "Table 5: success rate by friction range (q̇_max = 1.0, y_obj in [0.10, 0.28])",
+          "compare": "Planners on the same instances (q̇_max = {qdot_max}, y_obj in [0.10, 0.28], mu in [1, 3])"}
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -17,7 +19,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
-    problem = load_problem(resolve(args.problem))
+    problem = load_problem(resolve(args.problem or ("problems/paper_sim_slow.toml" if args.table == "compare"
+                                                    else "problems/paper_sim.toml")))
     rows = TABLES[args.table]()
     if args.methods:
         rows = [r for r in rows if r.method in args.methods or r.method == "random"]
@@ -25,8 +28,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
     summary = summarise(rows, results)
-    files = write_report(summary, out, args.table, TITLES[args.table])
-    print(markdown(summary, TITLES[args.table]))
+    title = TITLES[args.table].format(qdot_max=problem.qdot_max)
+    files = write_report(summary, out, args.table, title, results, rows)
+    print(markdown(summary, title))
     print("command: judgeopt evaluate " + " ".join(f"{a}" for a in _argv(args)))
     for f in files:
         print(f"wrote {f}")
@@ -34,7 +38,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _argv(args: argparse.Namespace) -> list[str]:
-    return [args.table, "--n", str(args.n), "--seed", str(args.seed)]
+    return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + (["--problem", args.problem] if args.problem else [])
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
@@ -43,11 +47,14 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "seeded environments per row (rows with the same mu range share them). Parallel processes "
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
                        "interrupted run resumes.")
-    e.add_argument("table", choices=("table4", "table5"))
+    e.add_argument("table", choices=("table4", "table5", "compare"),
+                   help="table4, table5: the paper's tables; compare: amortised vs direct vs CEM sampling")
     e.add_argument("--n", type=int, default=100, help="environments per row")
     e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--problem", default="problems/paper_sim.toml")
-    e.add_argument("--methods", nargs="+", choices=("amortized", "direct"), help="planners to include (default both)")
+    e.add_argument("--problem", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
+                   "q̇_max = 0.4)")
+    e.add_argument("--methods", nargs="+", choices=("amortized", "direct", "cem"),
+                   help="planners to include (default all of the table's)")
     e.add_argument("--out", help="output folder (default out/evaluate/TABLE)")
     e.add_argument("--models", default="models", help="folder searched for generators")
     e.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")

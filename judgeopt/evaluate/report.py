@@ -26,18 +26,46 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return (c - h, c + h)
 
 
+#: reliability bins: the planners' predictions crowd near 1, so the upper bins are narrow
+BINS = (0.0, 0.5, 0.8, 0.9, 0.95, 0.98, 0.99, 1.0)
+
+
+def reliability(pred: np.ndarray, outcome: np.ndarray, bins=BINS) -> list[dict]:
+    """Per bin of predicted success: count, mean predicted, observed rate (simulated)."""
+    pred, outcome = np.asarray(pred, float), np.asarray(outcome, float)
+    idx = np.clip(np.digitize(pred, bins[1:-1], right=True), 0, len(bins) - 2)
+    return [{"lo": bins[b], "hi": bins[b + 1], "n": int((idx == b).sum()),
+             "predicted": float(pred[idx == b].mean()), "observed": float(outcome[idx == b].mean())}
+            for b in range(len(bins) - 1) if (idx == b).any()]
+
+
+def calibration_error(pred: np.ndarray, outcome: np.ndarray) -> float:
+    """Expected calibration error: the count-weighted |predicted - observed| over the bins."""
+    cells = reliability(pred, outcome)
+    n = sum(c["n"] for c in cells)
+    return float(sum(c["n"] * abs(c["predicted"] - c["observed"]) for c in cells) / n) if n else math.nan
+
+
+def _judged(rs: list[dict]) -> list[dict]:
+    return [r for r in rs if r.get("predicted_success") is not None and r.get("simulated_success") is not None]
+
+
 def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
     out = []
     for row in rows:
         rs = [r for r in results[row.key] if r.get("simulated_success") is not None]
         k, n = sum(r["simulated_success"] for r in rs), len(rs)
         lo, hi = wilson(k, n)
-        pred = [r["predicted_success"] for r in rs if r.get("predicted_success") is not None]
+        judged = _judged(rs)
+        pred = [r["predicted_success"] for r in judged]
+        sim = [float(r["simulated_success"]) for r in judged]
         out.append({"row": row.name, "method": row.method, "judge": row.judge or "-",
                     "mu": f"[{row.mu[0]:g}, {row.mu[1]:g}]", "n": n, "successes": k,
                     "success_pct": 100 * k / n if n else math.nan, "ci95_low_pct": 100 * lo, "ci95_high_pct": 100 * hi,
                     "paper_pct": row.paper,
                     "predicted_mean": float(np.mean(pred)) if pred else None,
+                    "calibration_gap_pct": 100 * float(np.mean(pred) - np.mean(sim)) if pred else None,
+                    "ece": calibration_error(pred, sim) if pred else None,
                     "violation_max": max((r["max_constraint_violation"] for r in rs), default=None),
                     "time_median_s": float(np.median([r["solve_time_s"] for r in rs])) if rs else None})
     return out
@@ -45,16 +73,19 @@ def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
 
 def markdown(summary: list[dict], title: str) -> str:
     lines = [f"### {title}", "",
-             "| row | planner | mu | simulated success | 95 % CI | paper | mean predicted | worst violation | median time |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "| row | planner | mu | simulated success | 95 % CI | paper | mean predicted | predicted - simulated | ECE "
+             "| worst violation | median time |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         pred = f"{s['predicted_mean']:.3f}" if s["predicted_mean"] is not None else "-"
+        gap = f"{s['calibration_gap_pct']:+.0f} pts" if s["calibration_gap_pct"] is not None else "-"
+        ece = f"{s['ece']:.3f}" if s["ece"] is not None else "-"
         viol = f"{s['violation_max']:.1e}" if s["violation_max"] is not None else "-"
         t = s["time_median_s"]
         tt = "-" if t is None or s["method"] == "random" else (f"{t * 1e3:.2f} ms" if t < 1 else f"{t:.2f} s")
         paper = f"{s['paper_pct']:g} %" if s["paper_pct"] is not None else "-"
         lines.append(f"| {s['row']} | {s['method']} | {s['mu']} | {s['successes']}/{s['n']} ({s['success_pct']:.0f} %) "
-                     f"| {s['ci95_low_pct']:.0f}-{s['ci95_high_pct']:.0f} % | {paper} | {pred} | {viol} | {tt} |")
+                     f"| {s['ci95_low_pct']:.0f}-{s['ci95_high_pct']:.0f} % | {paper} | {pred} | {gap} | {ece} | {viol} | {tt} |")
     return "\n".join(lines) + "\n"
 
 
@@ -62,7 +93,9 @@ def _atomic_text(path: Path, text: str) -> None:
     _atomic_write(path, text.encode())
 
 
-def write_report(summary: list[dict], out: Path, name: str, title: str) -> list[Path]:
+def write_report(summary: list[dict], out: Path, name: str, title: str,
+                 results: dict[str, list[dict]] | None = None, rows: list[Row] | None = None) -> list[Path]:
+    """Markdown, CSV and bar chart; with the per-plan results, also the reliability diagram."""
     out = Path(out)
     md = out / f"{name}.md"
     _atomic_text(md, markdown(summary, title))
@@ -72,7 +105,55 @@ def write_report(summary: list[dict], out: Path, name: str, title: str) -> list[
     w.writerows(summary)
     csv_path = out / f"{name}.csv"
     _atomic_text(csv_path, buf.getvalue())
-    return [md, csv_path, plot(summary, out / f"{name}.png", title)]
+    files = [md, csv_path, plot(summary, out / f"{name}.png", title)]
+    if results is not None and rows is not None:
+        files.append(plot_reliability(rows, results, out / f"{name}_reliability.png", title))
+    return files
+
+
+def _save(fig, path: Path) -> Path:
+    import matplotlib.pyplot as plt
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".png")
+    os.close(fd)
+    fig.savefig(tmp, dpi=120)
+    plt.close(fig)
+    os.replace(tmp, path)
+    return path
+
+
+def _label(row: Row) -> str:
+    return row.name if row.name == row.method else f"{row.name} / {row.method}"
+
+
+def plot_reliability(rows: list[Row], results: dict[str, list[dict]], path: Path, title: str) -> Path:
+    """Predicted against simulated success per planner row (marker area ~ plans in the bin)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.5, 5))
+    ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
+    for row in rows:
+        judged = _judged(results.get(row.key, []))
+        if not judged:
+            continue
+        cells = reliability([r["predicted_success"] for r in judged], [r["simulated_success"] for r in judged])
+        ece = calibration_error([r["predicted_success"] for r in judged], [r["simulated_success"] for r in judged])
+        ax.plot([c["predicted"] for c in cells], [c["observed"] for c in cells], marker="o", lw=1,
+                label=f"{_label(row)} (ECE {ece:.2f})")
+        ax.scatter([c["predicted"] for c in cells], [c["observed"] for c in cells],
+                   s=[8 + 2 * c["n"] for c in cells], alpha=0.3)
+    ax.set_xlabel("predicted success (judge)")
+    ax.set_ylabel("simulated success rate")
+    ax.set_xlim(0, 1.02)
+    ax.set_ylim(-0.02, 1.02)
+    ax.set_title("reliability: " + title, fontsize=8)
+    ax.legend(fontsize=6, loc="upper left")
+    fig.tight_layout()
+    return _save(fig, path)
 
 
 def plot(summary: list[dict], path: Path, title: str) -> Path:
@@ -96,10 +177,4 @@ def plot(summary: list[dict], path: Path, title: str) -> Path:
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".png")
-    os.close(fd)
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    os.replace(tmp, path)
-    return path
+    return _save(fig, path)

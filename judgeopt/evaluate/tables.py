@@ -9,6 +9,7 @@ and each finished chunk is written to OUT/partial/ at once: a rerun skips what i
 
 from __future__ import annotations
 
+import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -25,13 +26,15 @@ Y_RANGE = (0.10, 0.28)  # the paper's Table 4 / 5 object positions
 
 @dataclass(frozen=True)
 class Row:
-    """One line of a table: `method` in amortized | direct | random, with `judge` (a model path)."""
+    """One line of a table: `method` in amortized | direct | cem | random, with `judge` (a model
+    path); `overrides` change problem fields for this row only (an ablation)."""
 
     name: str
     method: str
     judge: str | None
     mu: tuple[float, float] = (1.0, 3.0)
     paper: float | None = None  # the paper's success rate for this row, in %
+    overrides: tuple[tuple[str, object], ...] = ()
 
     @property
     def key(self) -> str:
@@ -60,7 +63,13 @@ def table5() -> list[Row]:
             for (lo, hi), paper in TABLE5_RANGES for m in ("amortized", "direct")]
 
 
-TABLES = {"table4": table4, "table5": table5}
+def compare() -> list[Row]:
+    """The planners side by side on the same instances: amortised, direct, and the CEM
+    sampling baseline, all against the default judge (mu in [1, 3])."""
+    return [Row(m, m, "models/judge_default") for m in ("amortized", "direct", "cem")]
+
+
+TABLES = {"table4": table4, "table5": table5, "compare": compare}
 
 
 def environments(problem: Problem, row: Row, n: int, seed: int) -> np.ndarray:
@@ -81,11 +90,13 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
     from judgeopt.data.collect import _backend
 
     partial = Path(out) / "partial"
+    # chunks are named by the problem's content too: another problem never reuses them
+    tag = hashlib.sha256(json.dumps(problem.to_dict(), sort_keys=True).encode()).hexdigest()[:8]
     todo, done = [], {}
     for row in rows:
         envs = environments(problem, row, n, seed)
         for first in range(0, n, chunk):
-            path = partial / f"{row.key}__{first:05d}_n{n}_s{seed}.json"
+            path = partial / f"{row.key}__{first:05d}_n{n}_s{seed}_p{tag}.json"
             if path.exists():
                 done[path] = json.loads(path.read_text())
             else:
@@ -112,4 +123,6 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
 
 def _with_path(path: Path, problem: Problem, row: Row, envs: np.ndarray, first: int, seed: int,
                models_dir: str) -> tuple[Path, list[dict]]:
+    if row.overrides:
+        problem = problem.with_overrides(**dict(row.overrides))
     return path, _run(problem, (row.method,), models_dir, envs, True, row.judge, first, seed)

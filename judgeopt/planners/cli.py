@@ -94,7 +94,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     problem = problem_from_args(args)
     env = problem.nominal_env()
-    methods = METHODS if args.method == "both" else (args.method,)
+    methods = {"both": ("amortized", "direct"), "all": METHODS}.get(args.method, (args.method,))
     try:
         problem.check_feasible(env)
     except ProblemError as exc:
@@ -177,28 +177,42 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
 
     from judgeopt.cli import _command_line
     from judgeopt.judge.store import check_compatible, load_judge
-    from judgeopt.planners.generator import AmortizedPlanner
+    from judgeopt.planners.generator import CONDITION_NAMES, AmortizedPlanner, LimitRanges
     from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
     from judgeopt.planners.solve import resolve
     from judgeopt.planners.store import save_generator
 
     problem = problem_from_args(args)
+    ranges = None
+    given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
+    if args.conditioned:
+        ranges = LimitRanges(**given)
+        ranges.check(problem)
+    elif given:
+        raise ProblemError(f"--{next(iter(given)).replace('_', '-')}-range needs --conditioned")
     jpath = resolve(args.judge_model or problem.judge, (".json",))
     judge, jmeta = load_judge(jpath)
     check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
     torch.set_num_threads(args.jobs or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
                               threads=args.jobs, progress=not args.quiet)
-    gen, history = train_generator(problem, judge, tc=tc)
-    # held-out check: fresh environments (another seed), judged and measured like a solve
-    planner = AmortizedPlanner(gen, problem, judge)
+    gen, history = train_generator(problem, judge, tc=tc, conditioned=ranges)
+    # held-out check: fresh environments (another seed; for a conditioned generator, fresh
+    # limits from its ranges too), judged and measured like a solve
     rng = np.random.default_rng(args.seed + 1_000_003)
     envs = problem.sample_env(rng, 200)
-    res = [planner.solve(dict(zip(problem.env_names, e))) for e in envs]
+    if ranges is None:
+        planner = AmortizedPlanner(gen, problem, judge)
+        res = [planner.solve(dict(zip(problem.env_names, e))) for e in envs]
+    else:
+        lims = ranges.sample(rng, len(envs))
+        res = [AmortizedPlanner(gen, problem.with_overrides(**dict(zip(CONDITION_NAMES, map(float, lim)))),
+                                judge).solve(dict(zip(problem.env_names, e))) for e, lim in zip(envs, lims)]
     metrics = {"predicted_success_mean": float(np.mean([r.predicted_success for r in res])),
                "max_constraint_violation_max": float(max(r.max_constraint_violation for r in res)),
                "max_constraint_violation_median": float(np.median([r.max_constraint_violation for r in res])),
-               "n_envs": len(res), "final": history[-1] if history else {}}
+               "n_envs": len(res), **({"limits_sampled_from_ranges": True} if ranges is not None else {}),
+               "final": history[-1] if history else {}}
     meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "command": _command_line(),
             "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
@@ -206,7 +220,8 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
             "metrics": metrics}
     pt, js = save_generator(gen, args.out, meta)
     _write_history(history, Path(args.out))
-    print(f"wrote {pt} and {js}: on 200 new environments predicted success {metrics['predicted_success_mean']:.3f}, "
+    what = "environments" if ranges is None else "environments and limits"
+    print(f"wrote {pt} and {js}: on 200 new {what} predicted success {metrics['predicted_success_mean']:.3f}, "
           f"worst constraint violation {metrics['max_constraint_violation_max']:.2e} "
           f"(median {metrics['max_constraint_violation_median']:.2e})")
     return 0
@@ -233,8 +248,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        description="Plan with the amortised generator and/or the direct Ipopt solve against the "
                        "judge; show predicted (and with --simulate, simulated) success. Exit 3 if infeasible.")
     add_problem_arguments(s)
-    s.add_argument("--method", choices=("direct", "amortized", "both"), default="both",
-                   help="both (default): the generator's plan warm-starts the direct solve")
+    s.add_argument("--method", choices=("direct", "amortized", "cem", "both", "all"), default="both",
+                   help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
+                   "baseline (cross-entropy method over spline commands, same judge); all: the three")
     s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
     s.add_argument("--out", help="write the plan as CSV at 1 kHz (one file per method: NAME_METHOD.csv)")
@@ -257,4 +273,19 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--jobs", type=int, default=1, help="torch threads (1: bit-reproducible)")
     t.add_argument("--quiet", action="store_true")
+    c = t.add_argument_group("conditioned generator", "one generator for any q̇_max, f_min, f_max in ranges: the "
+                             "limits are extra inputs, drawn per training trajectory (uniform)")
+    c.add_argument("--conditioned", action="store_true",
+                   help="condition on the limits (the problem's other limits stay fixed)")
+    for name, default in (("qdot_max", "0.25,1.0"), ("f_min", "5,10"), ("f_max", "15,25")):
+        c.add_argument(f"--{name.replace('_', '-')}-range", dest=f"{name}_range", type=_range, metavar="LO,HI",
+                       help=f"range of {name} (default {default})")
     t.set_defaults(func=cmd_train_generator)
+
+
+def _range(text: str) -> tuple[float, float]:
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not LO,HI (two numbers)") from None
+    return lo, hi

@@ -2,7 +2,8 @@
 
 `Planners.solve(env)` runs the amortised generator, then the direct solve warm-started from
 the generator's plan (or from the documented min-jerk guess when no generator fits the
-limits), and optionally replays each plan in the simulator. The CLI, the benchmarks and the
+limits), then the CEM sampling baseline if asked, and optionally replays each plan in the
+simulator. The CLI, the benchmarks and the
 evaluation all go through here, so they measure the same thing.
 """
 
@@ -13,12 +14,13 @@ from pathlib import Path
 from typing import Sequence
 
 from judgeopt.judge.model import Judge
+from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
 from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.result import PlanResult
 
-METHODS = ("amortized", "direct")
+METHODS = ("amortized", "direct", "cem")
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -40,6 +42,7 @@ class Planners:
     generator_path: Path | None = None
     amortized: AmortizedPlanner | None = None
     direct: DirectPlanner | None = None
+    cem: CEMPlanner | None = None
     notes: list[str] = field(default_factory=list)
     methods: tuple[str, ...] = METHODS
 
@@ -75,14 +78,17 @@ class Planners:
             elif "amortized" in methods:
                 raise ProblemError(
                     f"no generator in {models_dir}/ was trained for these limits (q̇_max = {problem.qdot_max}, "
-                    f"f in [{problem.f_min}, {problem.f_max}], ...) and this judge; train one with "
-                    f"`judgeopt train-generator --problem {problem.source or 'PROBLEM'} ... --out models/NAME`, "
+                    f"f in [{problem.f_min}, {problem.f_max}], ...), or conditioned on ranges that contain them, "
+                    f"and this judge; train one with `judgeopt train-generator --problem "
+                    f"{problem.source or 'PROBLEM'} [--conditioned] ... --out models/NAME`, "
                     "pass one with --generator, or use --method direct")
             else:
                 out.notes.append("no generator trained for these limits: the direct solve starts from the min-jerk guess")
         if "direct" in methods:
             cj = build_casadi_judge(jmodel, backend=casadi_backend or DEFAULT_BACKEND)
             out.direct = DirectPlanner(problem, jmodel, cj)
+        if "cem" in methods:
+            out.cem = CEMPlanner(problem, jmodel)
         out.methods = tuple(m for m in METHODS if m in methods)
         return out
 
@@ -103,6 +109,8 @@ class Planners:
                 results.append(r)
         if self.direct is not None:
             results.append(self.direct.solve(env, guess=guess))
+        if self.cem is not None:
+            results.append(self.cem.solve(env))
         if simulator is not None:
             for r in results:
                 if r.plan is not None:
