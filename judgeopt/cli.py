@@ -135,23 +135,29 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
 
 def cmd_import_demos(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import save
-    from judgeopt.data.importer import ImportSpec, import_csv
+    from judgeopt.data.importer import HDF5_SUFFIXES, ImportError_, ImportSpec, import_demos, parse_hdf5_keys
 
     paths = []
     for p in map(Path, args.files):
-        paths += sorted(p.glob("*.csv")) if p.is_dir() else [p]
+        paths += sorted(f for f in p.iterdir() if f.suffix.lower() in (".csv", *HDF5_SUFFIXES)
+                        and f.resolve() != Path(args.out).resolve()) if p.is_dir() else [p]  # not our own output
     if not paths:
-        raise CLIError(f"no CSV files in {args.files}")
+        raise CLIError(f"no .csv, .h5 or .hdf5 files in {args.files}")
     env_names = tuple(n for n in args.env_names.split(",") if n)
-    ds, errors = import_csv(paths, ImportSpec(env_names, dt=args.dt, horizon=args.horizon))
+    try:
+        keys = parse_hdf5_keys(args.hdf5_keys, env_names)
+    except ImportError_ as exc:
+        raise CLIError(str(exc)) from None
+    ds, errors = import_demos(paths, ImportSpec(env_names, dt=args.dt, horizon=args.horizon, hdf5_keys=keys))
     for e in errors:
         print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
     if ds is None:
-        raise CLIError(f"nothing imported: all {len(paths)} file(s) were bad (reasons above)")
+        raise CLIError(f"nothing imported from {len(paths)} file(s): every demonstration was bad (reasons above)")
     ds.meta["command"] = _command_line()
     save(ds, args.out)
-    print(f"wrote {args.out}: {ds.n} demonstrations from {len(paths) - len(errors)} of {len(paths)} file(s), "
-          f"success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, N = {ds.horizon}")
+    print(f"wrote {args.out}: {ds.n} demonstrations from {ds.meta['files_imported']} of {len(paths)} file(s) "
+          f"({len(errors)} skipped), success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, "
+          f"N = {ds.horizon}")
     return 0
 
 
@@ -199,14 +205,21 @@ def build_parser() -> argparse.ArgumentParser:
     d.add_argument("--out", default="velocity_force.png")
     d.set_defaults(func=cmd_plot_data)
 
-    m = sub.add_parser("import-demos", help="import recorded demonstrations (CSV) into the dataset format",
+    m = sub.add_parser("import-demos", help="import recorded demonstrations (CSV or robomimic-style HDF5) into the "
+                       "dataset format",
                        description="CSV columns: t [s], y [m], optional ydot [m/s], f [N], label (success/failure), "
-                       "the environment columns, optional demo_id (several demonstrations in one table). Each "
-                       "demonstration is validated and resampled to the planner's period; bad files are reported "
-                       "(file, row, column) and the good ones imported.")
-    m.add_argument("files", nargs="+", help="CSV files or folders of them")
+                       "the environment columns, optional demo_id (several demonstrations in one table). HDF5 "
+                       "(.h5/.hdf5, robomimic layout): data/demo_N groups with t (or a dt/control_freq attribute), "
+                       "y, optional ydot, f as datasets in the group or under obs/, a success attribute (or "
+                       "success/rewards/dones dataset) and the environment values as attributes (or in env_args). "
+                       "Each demonstration is validated and resampled to the planner's period; bad CSV files and "
+                       "bad HDF5 demo groups are reported (file, row/demo group, column/field) and the rest imported.")
+    m.add_argument("files", nargs="+", help="CSV or HDF5 files, or folders of them")
     m.add_argument("--out", required=True, help="HDF5 dataset to write")
     m.add_argument("--env-names", default="y_obj,mu", help="environment columns, comma-separated (default y_obj,mu)")
+    m.add_argument("--hdf5-keys", metavar="NAME=PATH[:COL],...",
+                   help="where an HDF5 file keeps t, y, ydot, f, success, dt or an environment value, e.g. "
+                   "'y=obs/robot0_eef_pos:1,f=obs/ft:2,mu=friction' (:COL picks a column of a (T, k) array)")
     m.add_argument("--dt", type=float, default=0.05, help="planner sample period in s")
     m.add_argument("--horizon", type=int, default=30, help="planner steps N")
     m.set_defaults(func=cmd_import_demos)
