@@ -24,8 +24,12 @@ def _floats(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
 
 
+_ARGV: list[str] | None = None  # the arguments `main` was called with (in-process calls: tests, notebooks)
+
+
 def _command_line() -> str:
-    return "judgeopt " + " ".join(shlex.quote(a) for a in sys.argv[1:])
+    argv = _ARGV if _ARGV is not None else sys.argv[1:]
+    return "judgeopt " + " ".join(shlex.quote(a) for a in argv)
 
 
 # -- collect ---------------------------------------------------------------------------
@@ -244,6 +248,8 @@ def main(argv: list[str] | None = None) -> int:
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
 
+    global _ARGV
+    _ARGV = list(argv) if argv is not None else sys.argv[1:]
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)

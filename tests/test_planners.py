@@ -235,3 +235,104 @@ def test_solve_both_methods_in_simulation(capsys):
         assert isinstance(r["simulated_success"], bool)
     direct = out["results"][1]
     assert direct["max_constraint_violation"] < 1e-6 and direct["warm_start"] == "generator"
+
+
+# -- JSON plan export with provenance ----------------------------------------------------------------
+def _exported(tmp_path, **change):
+    """A plan result (no solver needed), written with `write_json`; returns (result, path)."""
+    from conftest import min_jerk_plan
+    from judgeopt.planners.export import plan_provenance, write_json
+    from judgeopt.planners.result import PlanResult
+
+    problem = load_problem(PROBLEMS / "paper_sim.toml")
+    env = {"y_obj": 0.2, "mu": 2.0}
+    plan = min_jerk_plan(-0.03, 0.2, 1.2, 12.0)
+    r = PlanResult("direct", env, plan, 0.93, "solved", 0.81, constraint_residuals(problem, plan, env), iterations=17,
+                   simulated_success=True, info={"warm_start": "generator", "sim_object_rise": np.float64(0.041),
+                                                 "ipopt_status": "Solve_Succeeded"})
+    for k, v in change.items():
+        setattr(r, k, v)
+    prov = plan_provenance(ROOT / "models" / "judge_default", "abc123", ROOT / "models" / "generator_paper_sim",
+                           command="judgeopt solve --save-json plan.json")
+    return r, problem, write_json(r, problem, tmp_path / "plan.json", prov)
+
+
+def test_plan_json_reads_back_the_plan_with_its_context_and_provenance(tmp_path):
+    from judgeopt.planners.export import read_plan_json, read_plan_record
+
+    r, problem, path = _exported(tmp_path)
+    plan = read_plan_json(path)
+    assert plan.dt == r.plan.dt
+    for a, b in ((plan.y, r.plan.y), (plan.ydot, r.plan.ydot), (plan.f, r.plan.f)):
+        assert np.array_equal(a, b)  # exact: JSON keeps every float's digits
+    rec = read_plan_record(path)
+    assert rec["format"] == "judgeopt-plan" and rec["format_version"] == 1 and rec["method"] == "direct"
+    assert rec["environment"] == {"y_obj": 0.2, "mu": 2.0} and rec["problem"] == json.loads(json.dumps(problem.to_dict()))
+    assert rec["predicted_success"] == 0.93 and rec["simulated_success"] is True
+    assert rec["simulation"] == {"object_rise": 0.041} and rec["solver_info"]["ipopt_status"] == "Solve_Succeeded"
+    assert set(rec["residuals"]) >= {"q_min", "q_max", "qdot_max", "f_min", "f_max", "q_end", "dynamics"}
+    assert rec["status"] == "solved" and rec["solve_time_s"] == 0.81 and rec["iterations"] == 17
+    fine = rec["plan_1khz"]
+    assert fine["step"] == 1e-3 and len(fine["t"]) == len(fine["q"]) == 1501
+    t, y, _, f = r.plan.resample(1e-3)
+    assert np.abs(np.array(fine["q"]) - y).max() < 1e-9 and np.abs(np.array(fine["f"]) - f).max() < 1e-6
+    p = rec["provenance"]
+    assert p["judge"] == {"path": str(ROOT / "models" / "judge_default"), "weights_sha256": "abc123"}
+    gen_meta = json.loads((ROOT / "models" / "generator_paper_sim.json").read_text())
+    assert p["generator"]["weights_sha256"] == gen_meta["weights_sha256"] and p["generator"]["role"] == "warm start"
+    assert p["judgeopt_version"] and p["command"] == "judgeopt solve --save-json plan.json" and "T" in p["created"]
+    assert p["git_commit"] is None or len(p["git_commit"]) == 40
+    assert not list(tmp_path.glob("*.tmp"))  # atomic: no temporary file left behind
+
+
+def test_plan_json_nonfinite_values_unused_generator_and_no_git(tmp_path, monkeypatch):
+    from judgeopt.planners import export
+
+    monkeypatch.setattr(export, "REPO", tmp_path)  # not a git checkout: no commit, no failure
+    r, _, path = _exported(tmp_path, method="cem", predicted_success=float("nan"), info={})
+    rec = export.read_plan_record(path)
+    assert rec["predicted_success"] is None and rec["provenance"]["generator"] is None
+    assert rec["provenance"]["git_commit"] is None and rec["provenance"]["git_dirty"] is None
+    assert rec["simulation"] is None
+
+
+@pytest.mark.parametrize("corrupt, message", [
+    (lambda s: s[: len(s) // 2], r"corrupt plan file, not valid JSON \(.* at line \d+, column \d+; truncated"),
+    (lambda s: "[1, 2]", "not a judgeopt plan file \\(format is 'list'"),
+    (lambda s: s.replace('"judgeopt-plan"', '"judgeopt-judge"'), "format is 'judgeopt-judge'"),
+    (lambda s: s.replace('"format_version": 1', '"format_version": 7'), "version 7 is newer"),
+    (lambda s: s.replace('"provenance"', '"provenanse"'), r"missing field\(s\) \['provenance'\]"),
+    (lambda s: s.replace('"qdot": [', '"qdott": [', 1), r"missing field\(s\) \['plan.qdot'\]"),
+    (lambda s: s.replace('"q": [', '"q": [null, ', 1), "'plan.q' must be a list of numbers"),
+    (lambda s: s.replace('"f": [', '"f": [1.0, ', 1), "plan channels must have equal length"),
+    (lambda s: s.replace('"dt": 0.05', '"dt": 0.1', 1), "'plan.t' .* is not k \\* dt"),
+])
+def test_a_corrupted_plan_json_gives_a_clear_error(tmp_path, corrupt, message):
+    from judgeopt.planners.export import PlanFileError, read_plan_json
+
+    _, _, path = _exported(tmp_path)
+    path.write_text(corrupt(path.read_text()))
+    with pytest.raises(PlanFileError, match=message) as info:
+        read_plan_json(path)
+    assert str(info.value).startswith(str(path))
+    with pytest.raises(PlanFileError, match="no such plan file"):
+        read_plan_json(tmp_path / "missing.json")
+
+
+def test_solve_save_json_writes_one_file_per_method(tmp_path, capsys):
+    from judgeopt.planners.export import read_plan_json, read_plan_record
+
+    rc = main(["solve", "--qdot-max", "0.4", "--method", "both", "--y-obj", "0.2", "--no-simulate", "--json",
+               "--save-json", str(tmp_path / "plan.json")])
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0
+    for r in out["results"]:
+        path = tmp_path / f"plan_{r['method']}.json"
+        assert str(path) in out["files"]
+        plan, rec = read_plan_json(path), read_plan_record(path)
+        assert plan.y.tolist() == r["q"] and plan.f.tolist() == r["f"] and rec["residuals"] == r["residuals"]
+        assert rec["predicted_success"] == r["predicted_success"] and rec["simulated_success"] is None
+        prov = rec["provenance"]
+        assert prov["judge"]["weights_sha256"] == out["judge_sha256"] and "--save-json" in prov["command"]
+        assert prov["generator"]["path"] == out["generator"]
+        assert prov["generator"]["role"] == {"amortized": "planner", "direct": "warm start"}[r["method"]]

@@ -118,6 +118,13 @@ def cmd_solve(args: argparse.Namespace) -> int:
             from judgeopt.planners.export import write_csv
 
             files.append(write_csv(r.plan, _with_method(args.out, r.method, several)))
+        if r.plan is not None and args.save_json:
+            from judgeopt.cli import _command_line
+            from judgeopt.planners.export import plan_provenance, write_json
+
+            prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"],
+                                   planners.generator_path, _command_line())
+            files.append(write_json(r, problem, _with_method(args.save_json, r.method, several), prov))
     if args.plot and any(r.plan is not None for r in results):
         from judgeopt.planners.export import plot_plans
 
@@ -254,6 +261,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
     s.add_argument("--out", help="write the plan as CSV at 1 kHz (one file per method: NAME_METHOD.csv)")
+    s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "
+                   "provenance (models' sha256, git commit, command) as one JSON file (one per method: "
+                   "NAME_METHOD.json); read back with judgeopt.planners.export.read_plan_json")
     s.add_argument("--plot", help="write q, q̇ and f against time with the allowed region (PNG)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
