@@ -237,6 +237,9 @@ def build_parser() -> argparse.ArgumentParser:
     from judgeopt.evaluate.cli import add_evaluate_commands
 
     add_evaluate_commands(sub)
+    from judgeopt.refine.cli import add_refine_commands
+
+    add_refine_commands(sub)
     return p
 
 

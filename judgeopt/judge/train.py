@@ -111,10 +111,15 @@ def _score(model: Judge, data: tuple[torch.Tensor, torch.Tensor, torch.Tensor], 
 
 
 def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig | None = None,
-                tc: TrainConfig | None = None) -> tuple[Judge, TrainResult]:
+                tc: TrainConfig | None = None, init: Judge | None = None) -> tuple[Judge, TrainResult]:
     """Train on train_ds (minus a validation split); returns the model of the best
-    validation epoch (eval mode) and the per-epoch history (train/val/test accuracy)."""
+    validation epoch (eval mode) and the per-epoch history (train/val/test accuracy).
+
+    `init`: fine-tune a copy of this judge (its architecture and input normalisation are
+    kept, so its CasADi build and generators stay comparable) instead of starting afresh."""
     tc = tc or TrainConfig()
+    if init is not None:
+        config = init.config
     config = config or JudgeConfig(horizon=train_ds.horizon, dt=train_ds.dt)
     if config.horizon != train_ds.horizon or abs(config.dt - train_ds.dt) > 1e-12:
         config = JudgeConfig(**{**config.to_dict(), "horizon": train_ds.horizon, "dt": train_ds.dt})
@@ -127,8 +132,12 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
 
     tr_idx, va_idx = stratified_split(train_ds.labels, tc.val_fraction, tc.seed)
     train_part, val_part = train_ds.subset(tr_idx), train_ds.subset(va_idx)
-    model = Judge(config)
-    model.fit_normalization(train_part.responses, select_env(train_part.env, train_part.env_names, config.env_names))
+    if init is not None:
+        model = copy.deepcopy(init).float()
+    else:
+        model = Judge(config)
+        model.fit_normalization(train_part.responses, select_env(train_part.env, train_part.env_names,
+                                                                 config.env_names))
     tr = _tensors(model, train_part, tc.invert_labels)
     va = _tensors(model, val_part, tc.invert_labels)
     te = _tensors(model, test_ds, tc.invert_labels) if test_ds is not None else None

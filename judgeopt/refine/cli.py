@@ -1,0 +1,103 @@
+"""`judgeopt refine`: plan, replay, aggregate the outcomes, fine-tune the judge; per round."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+from pathlib import Path
+
+
+def cmd_refine(args: argparse.Namespace) -> int:
+    from judgeopt.judge.store import _atomic_write
+    from judgeopt.planners.cli import problem_from_args
+    from judgeopt.planners.solve import resolve
+    from judgeopt.refine.loop import RefineConfig, install, refine
+
+    problem = problem_from_args(args)
+    cfg = RefineConfig(rounds=args.rounds, n=args.n, methods=tuple(args.methods), seed=args.seed,
+                       judge_epochs=args.judge_epochs, weight=args.weight, generator_epochs=args.generator_epochs,
+                       chunk=args.chunk)
+    out = Path(args.out)
+    generator = resolve(args.generator, (".json",)) if args.generator else None
+    figures = refine(problem, resolve(args.train), resolve(args.judge_model or problem.judge, (".json",)), generator,
+                     out, cfg, test_data=resolve(args.test) if args.test else None, n_jobs=args.jobs,
+                     scheduler=args.scheduler, progress=not args.quiet)
+    md = markdown(figures)
+    _atomic_write(out / "refine.md", md.encode())
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=sorted({k for f in figures for k in f}))
+    w.writeheader()
+    w.writerows(figures)
+    _atomic_write(out / "refine.csv", buf.getvalue().encode())
+    plot(figures, out / "refine.png")
+    print(md)
+    print(f"wrote {out / 'refine.md'}, {out / 'refine.csv'}, {out / 'refine.png'}")
+    if args.install:
+        for p in install(out, args.install, resolve("models")):
+            print(f"installed {p}")
+    return 0
+
+
+def markdown(figures: list[dict]) -> str:
+    lines = ["| round | planner | simulated success | mean predicted | predicted - simulated | worst violation "
+             "| judge after: val acc | test acc |", "|---|---|---|---|---|---|---|---|"]
+    for f in figures:
+        test = f.get("judge_after_test_accuracy")
+        lines.append(f"| {f['round']} | {f['method']} | {f['successes']}/{f['n']} ({f['success_pct']:.0f} %) "
+                     f"| {f['predicted_mean']:.3f} | {f['calibration_gap_pct']:+.0f} pts | {f['violation_max']:.1e} "
+                     f"| {f['judge_after_val_accuracy']:.3f} | {'-' if test is None else f'{test:.3f}'} |")
+    return ("Round k's plans are made with the models of round k - 1 (round 1: the starting models) on "
+            "environments none of them has seen.\n\n" + "\n".join(lines) + "\n")
+
+
+def plot(figures: list[dict], path: Path) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from judgeopt.evaluate.report import _save
+
+    fig, ax = plt.subplots(figsize=(5, 3.5))
+    for m in sorted({f["method"] for f in figures}):
+        fs = [f for f in figures if f["method"] == m]
+        ax.plot([f["round"] for f in fs], [f["success_pct"] for f in fs], marker="o", label=f"{m}: simulated")
+        ax.plot([f["round"] for f in fs], [100 * f["predicted_mean"] for f in fs], ls="--", marker="x",
+                label=f"{m}: predicted")
+    ax.set_xlabel("round (plans by the models of the round before)")
+    ax.set_ylabel("success [%]")
+    ax.set_ylim(0, 102)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return _save(fig, path)
+
+
+def add_refine_commands(sub: argparse._SubParsersAction) -> None:
+    from judgeopt.planners.cli import add_problem_arguments
+
+    r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",
+                       description="Each round plans for --n fresh environments with the current judge, replays "
+                       "every plan in PyBullet, adds the labelled outcomes to the training data and fine-tunes the "
+                       "judge (and with --generator-epochs the generator). Parallel like collection; a rerun "
+                       "resumes. Models go to --out; models/ changes only with --install NAME.")
+    add_problem_arguments(r)
+    r.add_argument("--rounds", type=int, default=3)
+    r.add_argument("--n", type=int, default=150, help="environments per round")
+    r.add_argument("--methods", nargs="+", choices=("direct", "amortized", "cem"), default=["direct"])
+    r.add_argument("--train", default="data/train.h5", help="the demonstrations the judge was trained on")
+    r.add_argument("--test", default="data/test.h5", help="held-out demonstrations to score each new judge")
+    r.add_argument("--judge-model", help="starting judge (default: the problem's)")
+    r.add_argument("--generator", help="generator to warm-start the direct solve and to fine-tune")
+    r.add_argument("--judge-epochs", type=int, default=8)
+    r.add_argument("--weight", type=int, default=3, help="copies of the planners' outcomes in the training set")
+    r.add_argument("--generator-epochs", type=int, default=0)
+    r.add_argument("--seed", type=int, default=0)
+    r.add_argument("--out", default="out/refine")
+    r.add_argument("--jobs", type=int, default=-1)
+    r.add_argument("--scheduler", help="address of a Dask distributed scheduler")
+    r.add_argument("--chunk", type=int, default=5)
+    r.add_argument("--install", metavar="NAME", help="copy the last round's models to models/judge_NAME (and "
+                   "generator_NAME)")
+    r.add_argument("--quiet", action="store_true")
+    r.set_defaults(func=cmd_refine)

@@ -1,0 +1,232 @@
+"""Closing the loop in simulation (DAgger-style data aggregation for the judge).
+
+A planner that maximises a learned judge finds the plans the judge is most wrong about, and
+those are exactly the plans the demonstrations never showed it. Each round here plans for
+fresh environments with the current judge (and generator), replays every plan in the
+simulator, adds the labelled outcomes to the training data and fine-tunes the judge (and,
+if asked, the generator) on the aggregate. The success rate of round k's plans is the
+honest measure of the models of round k - 1: they never saw those environments.
+
+Layout of OUT (every file written atomically; a rerun resumes where it stopped):
+
+    round_1/partial/*.json   planned-and-simulated chunks of round 1 (resume unit)
+    round_1/outcomes.h5      round 1's plans as demonstrations (commands, responses, labels)
+    round_1/judge.{pt,json}  the judge fine-tuned after round 1
+    round_1/generator.*      the generator fine-tuned against it (when generator_epochs > 0)
+    round_1/summary.json     round 1 finished (its figures)
+    refine.md / .csv / .png  success per round
+
+Nothing under models/ is touched; `install` copies the last round's models there, on request.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from joblib import Parallel, delayed
+
+from judgeopt.judge.store import _atomic_write
+from judgeopt.planners.problem import Problem
+
+
+@dataclass(frozen=True)
+class RefineConfig:
+    rounds: int = 3
+    n: int = 150  # environments per round
+    methods: tuple[str, ...] = ("direct",)
+    seed: int = 0
+    judge_epochs: int = 8  # fine-tuning epochs per round (from the previous round's judge)
+    judge_lr: float = 1e-3
+    weight: int = 3  # copies of the planners' outcomes in the training set: they are few, and they matter
+    generator_epochs: int = 0  # > 0: fine-tune the generator against each new judge
+    chunk: int = 5
+
+    def __post_init__(self) -> None:
+        from judgeopt.planners.problem import ProblemError
+
+        if self.rounds < 1 or self.n < 1 or self.judge_epochs < 1 or self.weight < 1 or self.chunk < 1:
+            raise ProblemError(f"rounds, n, judge_epochs, weight and chunk must be at least 1: {self}")
+        if "amortized" in self.methods and self.generator_epochs < 1:
+            raise ProblemError("planning with the amortised generator in refinement needs generator_epochs > 0 "
+                               "(a generator is only as good as the judge it was trained against)")
+
+
+def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None,
+                envs: np.ndarray, first: int) -> list[dict[str, Any]]:
+    """Plan, replay, and keep what the dataset needs: the command, the measured response, the label."""
+    import torch
+
+    from judgeopt.planners.batch import _WORKERS, _simulator
+    from judgeopt.planners.solve import Planners
+
+    torch.set_num_threads(1)
+    key = json.dumps(["refine", problem.to_dict(), methods, judge, generator], sort_keys=True)
+    if key not in _WORKERS:
+        _WORKERS[key] = Planners.load(problem, methods, judge=judge, generator=generator)
+    planners, sim = _WORKERS[key], _simulator()
+    rows = []
+    for i, e in enumerate(envs):
+        env = dict(zip(problem.env_names, map(float, e)))
+        for r in planners.solve(env):
+            if r.plan is None:
+                continue
+            out = sim.run(r.plan, env["y_obj"], env["mu"])
+            rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
+                         "command": r.plan.as_array().tolist(), "response": out.as_array().tolist(),
+                         "success": bool(out.success), "predicted": r.predicted_success,
+                         "violation": r.max_constraint_violation})
+    return rows
+
+
+def _numbered(path: Path, *args) -> tuple[Path, list[dict]]:
+    return path, _plan_chunk(*args)
+
+
+def _round_envs(problem: Problem, seed: int, k: int, n: int) -> np.ndarray:
+    return problem.sample_env(np.random.default_rng([seed, 7919, k]), n)
+
+
+def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generator: str | None, folder: Path,
+                n_jobs: int, scheduler: str | None, progress: bool) -> list[dict]:
+    from judgeopt.data.collect import _backend
+
+    envs = _round_envs(problem, cfg.seed, k, cfg.n)
+    partial = folder / "partial"
+    done, todo = [], []
+    for first in range(0, cfg.n, cfg.chunk):
+        path = partial / f"{first:05d}.json"
+        if path.exists():
+            done += json.loads(path.read_text())
+        else:
+            todo.append((path, first))
+    if todo:
+        jobs = (delayed(_numbered)(path, problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f)
+                for path, f in todo)
+        with _backend(scheduler, n_jobs):
+            it = Parallel(return_as="generator_unordered")(jobs)
+            if progress:
+                from tqdm import tqdm
+
+                it = tqdm(it, total=len(todo), desc=f"round {k}: plan and replay", unit="chunk")
+            for path, rows in it:
+                _atomic_write(path, json.dumps(rows).encode())
+                done += rows
+    return sorted(done, key=lambda r: (r["env_index"], r["method"]))
+
+
+def _outcomes(rows: list[dict], problem: Problem, k: int):
+    from judgeopt.data.dataset import Dataset
+
+    return Dataset(np.array([r["command"] for r in rows]), np.array([r["response"] for r in rows]),
+                   np.array([int(r["success"]) for r in rows]), np.array([r["env"] for r in rows]), problem.dt,
+                   problem.env_names, np.array([r["env_index"] for r in rows]),
+                   meta={"source": f"judgeopt refine round {k}: planners' outcomes in simulation"})
+
+
+def _round_figures(rows: list[dict], k: int) -> list[dict]:
+    out = []
+    for m in sorted({r["method"] for r in rows}):
+        rs = [r for r in rows if r["method"] == m]
+        sim = np.mean([r["success"] for r in rs])
+        pred = np.mean([r["predicted"] for r in rs])
+        out.append({"round": k, "method": m, "n": len(rs), "successes": int(sum(r["success"] for r in rs)),
+                    "success_pct": 100 * float(sim), "predicted_mean": float(pred),
+                    "calibration_gap_pct": 100 * float(pred - sim),
+                    "violation_max": float(max(r["violation"] for r in rs))})
+    return out
+
+
+def refine(problem: Problem, train_data: str | Path, judge: str | Path, generator: str | Path | None,
+           out: str | Path, cfg: RefineConfig, test_data: str | Path | None = None, n_jobs: int = -1,
+           scheduler: str | None = None, progress: bool = True) -> list[dict]:
+    """Run (or resume) the rounds; returns one figure row per round and method."""
+    from judgeopt.data.dataset import concatenate, load, save
+    from judgeopt.judge.evaluate import evaluate_judge
+    from judgeopt.judge.store import load_judge, save_judge, sha256_file
+    from judgeopt.judge.train import TrainConfig, train_judge
+
+    out = Path(out)
+    base = load(train_data)
+    test = load(test_data) if test_data else None
+    judge, generator = str(judge), (str(generator) if generator else None)
+    figures: list[dict] = []
+    aggregated = []
+    for k in range(1, cfg.rounds + 1):
+        folder = out / f"round_{k}"
+        summary_path = folder / "summary.json"
+        if summary_path.exists():  # finished earlier: reuse its models and data
+            summary = json.loads(summary_path.read_text())
+            aggregated.append(load(folder / "outcomes.h5"))
+            figures += summary["figures"]
+            judge, generator = summary["judge"], summary["generator"]
+            continue
+        rows = _plan_round(problem, cfg, k, judge, generator, folder, n_jobs, scheduler, progress)
+        outcomes = _outcomes(rows, problem, k)
+        save(outcomes, folder / "outcomes.h5")
+        aggregated.append(outcomes)
+        figs = _round_figures(rows, k)
+        # fine-tune the judge on the demonstrations plus every round's outcomes so far
+        data = concatenate([base] + [a for a in aggregated for _ in range(cfg.weight)])
+        init, _ = load_judge(judge)
+        tc = TrainConfig(epochs=cfg.judge_epochs, lr=cfg.judge_lr, seed=cfg.seed + k, progress=progress)
+        model, result = train_judge(data, test, tc=tc, init=init)
+        new_judge = folder / "judge"
+        metrics = {"val_accuracy": result.best["val_accuracy"], "best_epoch": result.best_epoch}
+        if test is not None:
+            metrics["test_accuracy"] = evaluate_judge(model, test)["accuracy"]
+        save_judge(model, new_judge, {"source": f"judgeopt refine round {k}", "fine_tuned_from": judge,
+                                      "refine_config": asdict(cfg), "metrics": metrics,
+                                      "train_data": {"path": str(train_data), "sha256": sha256_file(train_data),
+                                                     "planner_outcomes": int(sum(a.n for a in aggregated)),
+                                                     "weight": cfg.weight}})
+        judge = str(new_judge)
+        if cfg.generator_epochs > 0:
+            generator = str(_fine_tune_generator(problem, judge, generator, folder / "generator", cfg, k, progress))
+        for f in figs:
+            f.update({f"judge_after_{m}": v for m, v in metrics.items()})
+        summary = {"round": k, "figures": figs, "judge": judge, "generator": generator}
+        _atomic_write(summary_path, json.dumps(summary, indent=2).encode())
+        figures += figs
+    return figures
+
+
+def _fine_tune_generator(problem: Problem, judge: str, generator: str | None, out: Path, cfg: RefineConfig,
+                         k: int, progress: bool) -> Path:
+    from judgeopt.judge.store import load_judge
+    from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
+    from judgeopt.planners.store import load_generator, save_generator
+
+    jmodel, jmeta = load_judge(judge)
+    init = load_generator(generator)[0] if generator else None
+    tc = GeneratorTrainConfig(epochs=cfg.generator_epochs, seed=cfg.seed + k, progress=progress)
+    gen, _ = train_generator(problem, jmodel, tc=tc, init=init)
+    save_generator(gen, out, {"source": f"judgeopt refine round {k}", "fine_tuned_from": generator,
+                              "train_config": train_config_dict(tc), "problem": problem.to_dict(),
+                              "judge": {"path": judge, "weights_sha256": jmeta["weights_sha256"]}})
+    return out
+
+
+def install(out: str | Path, name: str, models_dir: str | Path = "models") -> list[Path]:
+    """Copy the last finished round's judge (and generator) into models/ under `name`: the
+    only way refinement changes shipped models."""
+    rounds = sorted(Path(out).glob("round_*/summary.json"), key=lambda p: int(p.parent.name.split("_")[1]))
+    if not rounds:
+        from judgeopt.planners.problem import ProblemError
+
+        raise ProblemError(f"{out}: no finished refinement round to install (run judgeopt refine first)")
+    summary = json.loads(rounds[-1].read_text())
+    copied = []
+    for kind, src in (("judge", summary["judge"]), ("generator", summary["generator"])):
+        if not src:
+            continue
+        pt, js = Path(models_dir) / f"{kind}_{name}.pt", Path(models_dir) / f"{kind}_{name}.json"
+        meta = json.loads(Path(src + ".json").read_text())
+        meta.update(weights_file=pt.name, installed_from=src)
+        _atomic_write(pt, Path(src + ".pt").read_bytes())
+        _atomic_write(js, (json.dumps(meta, indent=2) + "\n").encode())
+        copied += [pt, js]
+    return copied

@@ -1,0 +1,48 @@
+"""judgeopt refine: rounds resume, outcomes become demonstrations, models/ changes only on request."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from judgeopt.data.dataset import load
+from judgeopt.planners.problem import ProblemError, load_problem
+from judgeopt.refine.loop import RefineConfig, install, refine
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_config_is_checked():
+    with pytest.raises(ProblemError, match="at least 1"):
+        RefineConfig(rounds=0)
+    with pytest.raises(ProblemError, match="generator_epochs"):
+        RefineConfig(methods=("amortized",))
+
+
+def test_install_needs_a_finished_round(tmp_path):
+    with pytest.raises(ProblemError, match="no finished refinement round"):
+        install(tmp_path, "x", tmp_path / "models")
+
+
+@pytest.mark.slow
+def test_one_round_aggregates_fine_tunes_resumes_and_installs(tmp_path):
+    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    cfg = RefineConfig(rounds=1, n=2, judge_epochs=1, chunk=1)
+    args = (problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_default", None, tmp_path / "out", cfg)
+    figs = refine(*args, n_jobs=1, progress=False)
+    assert [(f["round"], f["method"], f["n"]) for f in figs] == [(1, "direct", 2)]
+    outcomes = load(tmp_path / "out" / "round_1" / "outcomes.h5")
+    assert outcomes.n == 2 and set(outcomes.labels) <= {0, 1} and outcomes.responses.shape == (2, 31, 3)
+    summary = json.loads((tmp_path / "out" / "round_1" / "summary.json").read_text())
+    meta = json.loads(Path(summary["judge"] + ".json").read_text())
+    assert meta["fine_tuned_from"].endswith("judge_default") and meta["train_data"]["planner_outcomes"] == 2
+    # a rerun finds the round finished and recomputes nothing
+    (tmp_path / "out" / "round_1" / "partial").rename(tmp_path / "moved")
+    assert refine(*args, n_jobs=1, progress=False) == figs
+    files = install(tmp_path / "out", "refined", tmp_path / "models")
+    assert [f.name for f in files] == ["judge_refined.pt", "judge_refined.json"]
+    from judgeopt.judge.store import load_judge
+
+    load_judge(tmp_path / "models" / "judge_refined")  # the hash still matches after the copy
