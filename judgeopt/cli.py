@@ -240,6 +240,12 @@ def build_parser() -> argparse.ArgumentParser:
     from judgeopt.refine.cli import add_refine_commands
 
     add_refine_commands(sub)
+    from judgeopt.planners.trust_region import add_trust_region_command
+
+    add_trust_region_command(sub)
+    from judgeopt.judge.ensemble import add_ensemble_command
+
+    add_ensemble_command(sub)
     return p
 
 

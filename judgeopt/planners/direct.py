@@ -23,9 +23,11 @@ import casadi as cs
 import numpy as np
 
 from judgeopt.judge.casadi_fn import CasadiJudge
+from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
 from judgeopt.planners.dynamics import accelerations
-from judgeopt.planners.problem import InfeasibleProblemError, Problem
+from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError
+from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals
 from judgeopt.trajectory import Plan
 
@@ -69,11 +71,19 @@ class DirectPlanner:
 
     method = "direct"
 
-    def __init__(self, problem: Problem, judge: Judge, cjudge: CasadiJudge, options: DirectOptions | None = None):
-        if cjudge.horizon != problem.steps:
-            raise InfeasibleProblemError(f"the judge was built for N = {cjudge.horizon} steps, the problem has "
-                                         f"{problem.steps}", ["horizon.steps"])
+    def __init__(self, problem: Problem, judge: Judge, cjudge: CasadiJudge, options: DirectOptions | None = None,
+                 members: list[CasadiJudge] | None = None, trust: TrustRegion | None = None):
+        """`members`: an ensemble's CasADi judges (the objective becomes mean - pessimism * std
+        of their logits); `trust`: the demonstrations' model for the trust-region constraint
+        (used when the problem sets trust_region)."""
+        for cj in [cjudge] + list(members or []):
+            if cj.horizon != problem.steps:
+                raise InfeasibleProblemError(f"the judge was built for N = {cj.horizon} steps, the problem has "
+                                             f"{problem.steps}", ["horizon.steps"])
+        if problem.trust_region is not None and trust is None:
+            raise ProblemError("trust_region is set but no trust-region model was given (see [models] trust_model)")
         self.problem, self.judge, self.cjudge = problem, judge, cjudge
+        self.members, self.trust = list(members or []), trust
         self.options = options or DirectOptions()
         self._build()
 
@@ -91,12 +101,14 @@ class DirectPlanner:
         g_pos = (qs[1:] - qs[:-1] - 0.5 * dt * (vs[:-1] + vs[1:])) / (SCALE_Q * 0.1)
         g_term = cs.vertcat((qs[-1] - q_end) / SCALE_Q, (vs[-1] - pr.qdot_end) / SCALE_V)
         traj = cs.reshape(cs.horzcat(qs, vs, f).T, -1, 1)  # row-major [y, ydot, f] per sample
-        logit = self.cjudge.fn(traj, env)[0]
+        logit = self.cjudge.fn(traj, env)[0] if not self.members else self._pessimistic(traj, env)
         neg_log_p = cs.fmax(-logit, 0) + cs.log1p(cs.exp(-cs.fabs(logit)))  # softplus(-logit), stable
         obj = pr.P * neg_log_p + pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(cs.diff(f)) / dt
         g = [g_vel, g_pos, g_term]
         if pr.p_min is not None:
             g.append(logit)
+        if pr.trust_region is not None:
+            g.append(self.trust.casadi_distance2(traj) / pr.trust_region ** 2)  # <= 1
         x = cs.vertcat(zq, zv, za, zf)
         nlp = {"x": x, "p": cs.vertcat(env, q_end), "f": obj, "g": cs.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": pr.max_iter,
@@ -115,6 +127,20 @@ class DirectPlanner:
         if pr.p_min is not None:
             lp = float(np.log(pr.p_min / (1 - pr.p_min)))
             self._lbg, self._ubg = np.append(self._lbg, lp), np.append(self._ubg, np.inf)
+        if pr.trust_region is not None:
+            self._lbg, self._ubg = np.append(self._lbg, -np.inf), np.append(self._ubg, 1.0)
+
+    def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
+        """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
+        z = [m.fn(traj, env)[0] for m in self.members]
+        if np.isinf(self.problem.pessimism):
+            out = z[0]
+            for zi in z[1:]:
+                out = cs.fmin(out, zi)
+            return out
+        mean = sum(z) / len(z)
+        var = sum((zi - mean) ** 2 for zi in z) / len(z)
+        return mean - self.problem.pessimism * cs.sqrt(var + 1e-9)
 
     def _pack(self, plan: Plan) -> np.ndarray:
         a = accelerations(plan.ydot, plan.dt)
@@ -147,15 +173,25 @@ class DirectPlanner:
         ipopt_status = stats.get("return_status", "unknown")
         plan = self._unpack(np.asarray(sol["x"]).ravel())
         residuals = constraint_residuals(pr, plan, env)
-        logit = float(self.cjudge.fn(plan.as_array().ravel(), judge_env(self.judge, env))[0])
-        prob = float(1.0 / (1.0 + np.exp(-logit)))
+        traj, je = plan.as_array().ravel(), judge_env(self.judge, env)
+        info = {"ipopt_status": ipopt_status, "warm_start": warm}
+        if self.members:  # the ensemble's own prediction: the mean of its members' probabilities
+            z = np.array([float(m.fn(traj, je)[0]) for m in self.members])
+            prob = float(np.mean(1.0 / (1.0 + np.exp(-z))))
+            bound = float(1.0 / (1.0 + np.exp(-pessimistic(z, pr.pessimism))))
+            info.update(member_success=(1.0 / (1.0 + np.exp(-z))).tolist(), pessimistic_success=bound)
+        else:
+            bound = prob = float(1.0 / (1.0 + np.exp(-float(self.cjudge.fn(traj, je)[0]))))
         status = STATUS.get(ipopt_status, "failed")
         message = f"Ipopt: {ipopt_status}"
         if pr.p_min is not None:
-            residuals["p_min"] = max(0.0, pr.p_min - prob)
+            residuals["p_min"] = max(0.0, pr.p_min - bound)
+        if pr.trust_region is not None:
+            d = float(self.trust.distance(traj)[0])
+            residuals["trust_region"] = max(0.0, d - pr.trust_region)
+            info["trust_distance"] = d
         if status == "infeasible":
             worst = sorted((k for k, v in residuals.items() if v > 1e-6), key=residuals.get, reverse=True)
             message += f"; constraints left violated: {', '.join(worst) or 'none measurable'}"
         return PlanResult(self.method, env, plan, prob, status, elapsed, residuals,
-                          iterations=int(stats.get("iter_count", -1)), message=message,
-                          info={"ipopt_status": ipopt_status, "warm_start": warm})
+                          iterations=int(stats.get("iter_count", -1)), message=message, info=info)

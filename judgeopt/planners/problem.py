@@ -45,8 +45,8 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
     "terminal": ("q_end", "qdot_end"),
     "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
-    "solver": ("p_min", "max_iter", "tol"),
-    "models": ("judge",),
+    "solver": ("p_min", "max_iter", "tol", "pessimism", "trust_region"),
+    "models": ("judge", "ensemble", "trust_model"),
 }
 
 
@@ -81,6 +81,13 @@ class Problem:
     max_iter: int = 300
     tol: float = 1e-6
     judge: str = "models/judge_default"
+    # remedies against exploiting the judge (off unless set): the direct solve maximises
+    # mean - pessimism * std of an ensemble's logits; and/or keeps the plan within
+    # `trust_region` (Mahalanobis distance) of the demonstrations modelled in `trust_model`
+    ensemble: str | None = None
+    pessimism: float = 1.0
+    trust_region: float | None = None
+    trust_model: str = "models/trust_region_default"
     source: str = ""  # the file it came from (for messages and provenance)
 
     def __post_init__(self) -> None:
@@ -116,6 +123,11 @@ class Problem:
             raise ProblemError(f"q_end = \"{Y_OBJ}\" but the environment has no y_obj{where}")
         if self.p_min is not None and not (0.0 < self.p_min < 1.0):
             raise ProblemError(f"p_min = {self.p_min}{where} must lie strictly between 0 and 1 (or be left out)")
+        if not (isinstance(self.pessimism, (int, float)) and self.pessimism >= 0):
+            raise ProblemError(f"pessimism = {self.pessimism!r}{where} must be >= 0 (std of the ensemble's logits "
+                               "subtracted; inf: the minimum)")
+        if self.trust_region is not None and not self.trust_region > 0:
+            raise ProblemError(f"trust_region = {self.trust_region}{where} must be a positive distance (or left out)")
         if not isinstance(self.max_iter, int) or self.max_iter < 1:
             raise ProblemError(f"max_iter = {self.max_iter!r}{where} must be a positive whole number")
         if not self.environment:

@@ -1,0 +1,129 @@
+"""A deep ensemble of judges and the pessimistic score planners can optimise.
+
+Why: one judge is confidently wrong off its data, and a planner that maximises it goes there.
+K judges trained from different seeds on bootstrap resamples agree where the data pin them
+down and disagree where they do not; planning against mean - k * std of their logits (or
+their minimum) prefers plans they all accept.
+
+An ensemble is a folder: member_0.{pt,json} ... member_{K-1}.{pt,json}, each an ordinary
+judge file, plus ensemble.json naming them with their weights hashes. Training is resumable
+member by member.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from judgeopt.judge.model import Judge, JudgeError
+from judgeopt.judge.store import _atomic_write, load_judge, save_judge
+
+FORMAT = "judgeopt-judge-ensemble"
+
+
+@dataclass(frozen=True)
+class EnsembleConfig:
+    k: int = 5
+    epochs: int = 20  # per member: validation accuracy plateaus around 20-40 (docs/judge.md)
+    seed: int = 0
+    bootstrap: bool = True
+
+
+def pessimistic(logits: np.ndarray, k: float) -> np.ndarray:
+    """mean - k * std over the members (axis 0); k = inf means the minimum."""
+    logits = np.asarray(logits, float)
+    if np.isinf(k):
+        return logits.min(0)
+    return logits.mean(0) - k * logits.std(0)
+
+
+def is_ensemble(path: str | Path) -> bool:
+    return (Path(path) / "ensemble.json").exists()
+
+
+def load_ensemble(path: str | Path) -> tuple[list[Judge], dict]:
+    """The members, checked against the hashes the manifest recorded."""
+    path = Path(path)
+    manifest = path / "ensemble.json"
+    if not manifest.exists():
+        raise JudgeError(f"{path}: not a judge ensemble (no ensemble.json; make one with `judgeopt train-ensemble`)")
+    try:
+        meta = json.loads(manifest.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise JudgeError(f"{manifest}: corrupt ensemble manifest ({exc})") from None
+    if meta.get("format") != FORMAT or not meta.get("members"):
+        raise JudgeError(f"{manifest}: not a judgeopt ensemble manifest, or it lists no members")
+    members = []
+    for m in meta["members"]:
+        judge, jmeta = load_judge(path / m["name"])
+        if jmeta["weights_sha256"] != m["weights_sha256"]:
+            raise JudgeError(f"{path / m['name']}: replaced after the ensemble was assembled (hash differs from "
+                             f"{manifest.name}); retrain it with `judgeopt train-ensemble`")
+        members.append(judge)
+    return members, meta
+
+
+def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: str | Path,
+                   cfg: EnsembleConfig, threads: int | None = None, progress: bool = True) -> Path:
+    """Train (or finish training) the K members; member i: seed + i, its own bootstrap sample."""
+    from judgeopt.data.dataset import load
+    from judgeopt.judge.evaluate import evaluate_judge
+    from judgeopt.judge.store import sha256_file
+    from judgeopt.judge.train import TrainConfig, train_judge
+
+    out = Path(out)
+    train, test = load(train_path), (load(test_path) if test_path else None)
+    members = []
+    for i in range(cfg.k):
+        name = f"member_{i}"
+        if not (out / f"{name}.json").exists():
+            data = train
+            if cfg.bootstrap:
+                data = train.subset(np.random.default_rng([cfg.seed, i]).integers(0, train.n, train.n))
+            tc = TrainConfig(epochs=cfg.epochs, seed=cfg.seed + i, threads=threads, progress=progress)
+            model, result = train_judge(data, test, tc=tc)
+            metrics = {"val_accuracy": result.best["val_accuracy"], "best_epoch": result.best_epoch}
+            if test is not None:
+                metrics["test_accuracy"] = evaluate_judge(model, test)["accuracy"]
+            save_judge(model, out / name, {"source": f"ensemble member {i} of {cfg.k}", "ensemble": asdict(cfg),
+                                           "train_data": {"path": str(train_path), "sha256": sha256_file(train_path),
+                                                          "bootstrap_seed": [cfg.seed, i] if cfg.bootstrap else None},
+                                           "training_seconds": result.seconds, "metrics": metrics})
+        meta = json.loads((out / f"{name}.json").read_text())
+        members.append({"name": name, "weights_sha256": meta["weights_sha256"], "metrics": meta.get("metrics", {})})
+    manifest = {"format": FORMAT, "format_version": 1, "config": asdict(cfg), "members": members,
+                "train_data": str(train_path)}
+    _atomic_write(out / "ensemble.json", (json.dumps(manifest, indent=2) + "\n").encode())
+    return out
+
+
+def cmd_train_ensemble(args) -> int:
+    from judgeopt.planners.solve import resolve
+
+    cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap)
+    out = train_ensemble(resolve(args.train), resolve(args.test) if args.test else None, args.out, cfg,
+                         threads=args.jobs, progress=not args.quiet)
+    meta = json.loads((out / "ensemble.json").read_text())
+    accs = [m["metrics"].get("test_accuracy") for m in meta["members"]]
+    print(f"wrote {out}/ensemble.json ({cfg.k} members; held-out accuracy per member: "
+          + ", ".join("-" if a is None else f"{a:.3f}" for a in accs) + ")")
+    return 0
+
+
+def add_ensemble_command(sub) -> None:
+    e = sub.add_parser("train-ensemble", help="train K judges (seeds, bootstrap samples) for pessimistic planning "
+                       "([models] ensemble, [solver] pessimism)",
+                       description="Resumable: finished members are kept; rerun to complete an interrupted run.")
+    e.add_argument("--train", default="data/train.h5")
+    e.add_argument("--test", default="data/test.h5")
+    e.add_argument("--k", type=int, default=5)
+    e.add_argument("--epochs", type=int, default=20)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
+    e.add_argument("--jobs", type=int, default=1, help="torch threads")
+    e.add_argument("--out", default="models/judge_ensemble")
+    e.add_argument("--quiet", action="store_true")
+    e.set_defaults(func=cmd_train_ensemble)
