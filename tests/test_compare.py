@@ -57,11 +57,12 @@ def test_reliability_and_calibration_error():
 
 def test_compare_report_has_every_planner_and_a_reliability_diagram(tmp_path):
     rows = compare()
-    assert [r.method for r in rows] == ["amortized", "direct", "cem"]
+    assert [r.method for r in rows][:3] == ["amortized", "direct", "cem"]
+    assert {r.method for r in rows[3:]} == {"direct"} and all(r.overrides or r.judge != rows[1].judge for r in rows[3:])
     fake = {r.key: [{"simulated_success": i % 4 != 0, "predicted_success": 0.95, "max_constraint_violation": 0.0,
                      "solve_time_s": 0.1, "env_index": i} for i in range(8)] for r in rows}
     summary = summarise(rows, fake)
-    assert [s["successes"] for s in summary] == [6, 6, 6]
+    assert {s["successes"] for s in summary} == {6}
     assert summary[0]["calibration_gap_pct"] == pytest.approx(20.0)
     files = write_report(summary, tmp_path, "compare", "test", fake, rows)
     assert [f.name for f in files] == ["compare.md", "compare.csv", "compare.png", "compare_reliability.png"]

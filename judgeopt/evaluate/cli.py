@@ -4,6 +4,7 @@ measured in simulation."""
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 TITLES = {"table4": "Table 4: success rate by what the judge knows (q̇_max = 1.0, y_obj in [0.10, 0.28], mu in [1, 3])",
@@ -24,6 +25,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     rows = TABLES[args.table]()
     if args.methods:
         rows = [r for r in rows if r.method in args.methods or r.method == "random"]
+    if args.rows:
+        rows = [r for r in rows if r.name in args.rows]
+        if not rows:
+            raise ProblemError(f"--rows {args.rows}: no such rows in {args.table} (names: "
+                               f"{[r.name for r in TABLES[args.table]()]})")
+    if args.judge_model:  # the same table against another judge (e.g. a refined one)
+        rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge_model).name}", judge=args.judge_model)
+                if r.judge else r for r in rows]
     out = Path(args.out or f"out/evaluate/{args.table}")
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
@@ -38,7 +47,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def _argv(args: argparse.Namespace) -> list[str]:
-    return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + (["--problem", args.problem] if args.problem else [])
+    extra = (["--problem", args.problem] if args.problem else []) + (["--methods", *args.methods] if args.methods else [])
+    extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
+        ["--judge-model", args.judge_model] if args.judge_model else [])
+    return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
@@ -55,6 +67,8 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "q̇_max = 0.4)")
     e.add_argument("--methods", nargs="+", choices=("amortized", "direct", "cem"),
                    help="planners to include (default all of the table's)")
+    e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
+    e.add_argument("--judge-model", help="run every planner row against this judge instead (rows renamed)")
     e.add_argument("--out", help="output folder (default out/evaluate/TABLE)")
     e.add_argument("--models", default="models", help="folder searched for generators")
     e.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")

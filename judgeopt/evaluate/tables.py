@@ -63,10 +63,18 @@ def table5() -> list[Row]:
             for (lo, hi), paper in TABLE5_RANGES for m in ("amortized", "direct")]
 
 
+#: the remedies of docs/remedies.md, one at a time, each against the plain direct solve
+ABLATIONS = (("direct + ensemble (mean - 1 std)", "models/judge_default",
+              (("ensemble", "models/judge_ensemble"), ("pessimism", 1.0))),
+             ("direct + trust region (D <= 8.5)", "models/judge_default", (("trust_region", 8.5),)),
+             ("direct, refined judge", "models/judge_refined", ()))
+
+
 def compare() -> list[Row]:
-    """The planners side by side on the same instances: amortised, direct, and the CEM
-    sampling baseline, all against the default judge (mu in [1, 3])."""
-    return [Row(m, m, "models/judge_default") for m in ("amortized", "direct", "cem")]
+    """The planners side by side on the same instances (amortised, direct, the CEM sampling
+    baseline, all against the default judge), then each remedy alone on the direct solve."""
+    rows = [Row(m, m, "models/judge_default") for m in ("amortized", "direct", "cem")]
+    return rows + [Row(name, "direct", judge, overrides=o) for name, judge, o in ABLATIONS]
 
 
 TABLES = {"table4": table4, "table5": table5, "compare": compare}
