@@ -9,6 +9,13 @@ time k/N. With q_k alone the network cannot tell "still accelerating" from "must
 at the same position, so it cannot meet the terminal velocity reliably; the velocity and
 time make the step a proper state-feedback law. All inputs are scaled by the problem's
 limits and environment ranges (stored with the model), so one file holds everything needed.
+
+A *conditioned* generator (issue 6, `LimitRanges`) also reads the limits q̇_max, f_min and f_max
+as inputs, scaled to [-1, 1] over the ranges it was trained on, so one network plans for any
+limits inside those ranges. Its output and velocity scales follow each plan's own limits
+(force around the middle of [f_min, f_max], accelerations from q̇_max), exactly as a per-limit
+generator's follow its problem's; the other limits (positions, q̇_min, start, terminal
+state, horizon) stay fixed to the problem it was trained on.
 """
 
 from __future__ import annotations
@@ -20,7 +27,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.planners.problem import Problem
+from judgeopt.planners.problem import Problem, ProblemError
 from judgeopt.planners.result import PlanResult, constraint_residuals
 from judgeopt.trajectory import Plan
 
@@ -36,13 +43,81 @@ class GeneratorConfig:
         return asdict(self)
 
 
-class Generator(nn.Module):
-    """state + environment -> (f_k, a_{k+1}); `rollout` makes whole plans in a batch."""
+#: the limits a conditioned generator reads, in input order
+CONDITION_NAMES = ("qdot_max", "f_min", "f_max")
 
-    def __init__(self, problem: Problem, config: GeneratorConfig | None = None):
+
+@dataclass(frozen=True)
+class LimitRanges:
+    """The limit ranges a conditioned generator is trained over (uniform, independently per
+    trajectory) and trusted in. Defaults: q̇_max from 0.25 m/s (y_obj = 0.28 m is reachable
+    from 0.214 m/s) to the paper's 1.0; f_min in [5, 10] N and f_max in [15, 25] N contain the
+    paper's 7.5 and 22.5 N, always keep f_min < f_max (by 5 N at least) and stay inside the
+    0-30 N the judge's demonstrations pressed with."""
+
+    qdot_max: tuple[float, float] = (0.25, 1.0)
+    f_min: tuple[float, float] = (5.0, 10.0)
+    f_max: tuple[float, float] = (15.0, 25.0)
+
+    def __post_init__(self) -> None:
+        for name in CONDITION_NAMES:
+            v = getattr(self, name)
+            if len(v) != 2 or not all(np.isfinite(v)) or not v[0] <= v[1]:
+                raise ProblemError(f"{name} range {list(v)} must be lo,hi with lo <= hi")
+            object.__setattr__(self, name, (float(v[0]), float(v[1])))
+        if not self.f_min[1] < self.f_max[0]:
+            raise ProblemError(f"f_min range {list(self.f_min)} must lie below the f_max range {list(self.f_max)} "
+                               "(every sampled f_min < f_max)")
+
+    def to_dict(self) -> dict[str, list[float]]:
+        return {k: list(getattr(self, k)) for k in CONDITION_NAMES}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "LimitRanges":
+        return cls(**{k: tuple(d[k]) for k in CONDITION_NAMES})
+
+    def array(self) -> np.ndarray:
+        """(3, 2): [lo, hi] per limit in CONDITION_NAMES order."""
+        return np.array([getattr(self, k) for k in CONDITION_NAMES], dtype=float)
+
+    def contains(self, problem: Problem, tol: float = 1e-9) -> bool:
+        return all(lo - tol <= getattr(problem, k) <= hi + tol for k, (lo, hi) in zip(CONDITION_NAMES, self.array()))
+
+    def sample(self, rng: np.random.Generator, n: int) -> np.ndarray:
+        """(n, 3) limits, each uniform in its range."""
+        return np.stack([rng.uniform(lo, hi, n) for lo, hi in self.array()], axis=1)
+
+    def check(self, problem: Problem) -> None:
+        """Every limit in the ranges must fit the problem's other limits and reach every terminal
+        position of its environment ranges (else training would chase infeasible plans)."""
+        lo_q, hi_q = self.qdot_max
+        if lo_q <= problem.qdot_min or lo_q < max(problem.qdot0, problem.qdot_end):
+            raise ProblemError(f"qdot_max range {list(self.qdot_max)} must lie above qdot_min = {problem.qdot_min} "
+                               f"and the start/terminal velocities")
+        slow = problem.with_overrides(qdot_max=lo_q)
+        ends = ([problem.q_end] if not isinstance(problem.q_end, str)
+                else list(np.atleast_1d(problem.environment["y_obj"])))
+        reach = slow.reachable_range()
+        if max(ends) > reach[1] + 1e-12:
+            raise ProblemError(f"qdot_max = {lo_q} (the bottom of its range) cannot reach q_end = {max(ends)} m in "
+                               f"{problem.steps} steps (reach {reach[1]:.4g} m); raise the range's lower end")
+
+
+def limits_of(problem: Problem) -> np.ndarray:
+    """The conditioned limits of a problem, in CONDITION_NAMES order."""
+    return np.array([getattr(problem, k) for k in CONDITION_NAMES], dtype=float)
+
+
+class Generator(nn.Module):
+    """state + environment (+ limits, when conditioned) -> (f_k, a_{k+1}); `rollout` makes whole
+    plans in a batch."""
+
+    def __init__(self, problem: Problem, config: GeneratorConfig | None = None,
+                 conditioned: LimitRanges | None = None):
         super().__init__()
         self.problem, self.config = problem, config or GeneratorConfig()
-        n_in = 3 + len(problem.env_names)
+        self.conditioned = conditioned
+        n_in = 3 + len(problem.env_names) + (len(CONDITION_NAMES) if conditioned is not None else 0)
         layers: list[nn.Module] = []
         for _ in range(self.config.layers):
             layers += [nn.Linear(n_in, self.config.hidden), nn.Tanh()]
@@ -55,6 +130,11 @@ class Generator(nn.Module):
         mid, half = np.add(lo, hi) / 2, np.maximum(np.subtract(hi, lo) / 2, 1e-6)
         self.register_buffer("e_mid", torch.tensor(mid, dtype=torch.float32))
         self.register_buffer("e_half", torch.tensor(half, dtype=torch.float32))
+        if conditioned is not None:  # buffers only here: per-limit files keep their state_dict keys
+            r = conditioned.array()
+            self.register_buffer("c_mid", torch.tensor(r.mean(1), dtype=torch.float32))
+            self.register_buffer("c_half", torch.tensor(np.maximum(0.5 * (r[:, 1] - r[:, 0]), 1e-6),
+                                                        dtype=torch.float32))
         # output scales: forces around the middle of their range; accelerations that can
         # cross the velocity range in a few steps
         self.f_mid, self.f_half = 0.5 * (pr.f_min + pr.f_max), 0.5 * (pr.f_max - pr.f_min)
@@ -62,23 +142,50 @@ class Generator(nn.Module):
         self.q_mid, self.q_half = 0.5 * (pr.q_min + pr.q_max), 0.5 * (pr.q_max - pr.q_min)
         self.v_half = 0.5 * (pr.qdot_max - pr.qdot_min)
 
-    def step(self, q: torch.Tensor, v: torch.Tensor, tau: float, en: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        x = torch.cat([((q - self.q_mid) / self.q_half)[:, None], (v / self.v_half)[:, None],
+    def scales(self, limits: torch.Tensor | None) -> tuple:
+        """(f_mid, f_half, a_scale, v_half): the problem's floats, or per-plan (B,) tensors from
+        (B, 3) limits [q̇_max, f_min, f_max] for a conditioned generator."""
+        if limits is None:
+            return self.f_mid, self.f_half, self.a_scale, self.v_half
+        qmax, fmin, fmax = limits[:, 0], limits[:, 1], limits[:, 2]
+        return (0.5 * (fmin + fmax), 0.5 * (fmax - fmin), (qmax - self.problem.qdot_min) / (4 * self.problem.dt),
+                0.5 * (qmax - self.problem.qdot_min))
+
+    def condition(self, limits: torch.Tensor | None, b: int) -> torch.Tensor | None:
+        """(B, 3) limits for a conditioned generator (default: its problem's), else None."""
+        if self.conditioned is None:
+            if limits is not None:
+                raise ValueError("this generator was trained for fixed limits; it takes no per-plan limits")
+            return None
+        if limits is None:
+            return torch.tensor(limits_of(self.problem), dtype=self.e_mid.dtype).expand(b, -1)
+        return limits.to(self.e_mid.dtype)
+
+    def step(self, q: torch.Tensor, v: torch.Tensor, tau: float, en: torch.Tensor,
+             scales: tuple | None = None) -> tuple[torch.Tensor, torch.Tensor]:
+        """`en`: the scaled environment, followed by the scaled limits for a conditioned generator."""
+        f_mid, f_half, a_scale, v_half = scales or self.scales(None)
+        x = torch.cat([((q - self.q_mid) / self.q_half)[:, None], (v / v_half)[:, None],
                        torch.full_like(q, 2 * tau - 1)[:, None], en], dim=1)
         out = self.net(x)
-        return self.f_mid + self.f_half * out[:, 0], self.a_scale * out[:, 1]
+        return f_mid + f_half * out[:, 0], a_scale * out[:, 1]
 
-    def rollout(self, env: torch.Tensor) -> torch.Tensor:
-        """(B, E) environments in problem order -> (B, N + 1, 3) plans [q, q̇, f]."""
+    def rollout(self, env: torch.Tensor, limits: torch.Tensor | None = None) -> torch.Tensor:
+        """(B, E) environments in problem order -> (B, N + 1, 3) plans [q, q̇, f]. A conditioned
+        generator also takes (B, 3) limits [q̇_max, f_min, f_max] (default: its problem's)."""
         pr = self.problem
         n, dt = pr.steps, pr.dt
         b = env.shape[0]
         en = (env.to(self.e_mid.dtype) - self.e_mid) / self.e_half
+        limits = self.condition(limits, b)
+        if limits is not None:
+            en = torch.cat([en, (limits - self.c_mid) / self.c_half], dim=1)
+        scales = self.scales(limits)
         q = torch.full((b,), pr.q0, dtype=en.dtype)
         v = torch.full((b,), pr.qdot0, dtype=en.dtype)
         qs, vs, fs = [q], [v], []
         for k in range(n + 1):
-            f, a = self.step(q, v, k / n, en)
+            f, a = self.step(q, v, k / n, en, scales)
             fs.append(f)
             if k == n:
                 break
@@ -106,25 +213,38 @@ class AmortizedPlanner:
         self._weights = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in linears]
         self._e_mid = generator.e_mid.double().numpy()
         self._e_half = generator.e_half.double().numpy()
+        g = generator
+        if g.conditioned is not None:  # this problem's limits are the generator's extra inputs
+            lim = limits_of(problem)
+            self._c = (lim - g.c_mid.double().numpy()) / g.c_half.double().numpy()
+            qmax, fmin, fmax = lim
+            gp = g.problem
+            self._scales = (0.5 * (fmin + fmax), 0.5 * (fmax - fmin), (qmax - gp.qdot_min) / (4 * gp.dt),
+                            0.5 * (qmax - gp.qdot_min))
+        else:
+            self._c = np.empty(0)
+            self._scales = (g.f_mid, g.f_half, g.a_scale, g.v_half)
 
     def plan(self, env: dict[str, float]) -> Plan:
         """The generator's rollout in numpy float64 (equal to Generator.rollout to float32 rounding)."""
         g, pr = self.generator, self.generator.problem
         n, dt = pr.steps, pr.dt
+        f_mid, f_half, a_scale, v_half = self._scales
         en = (np.array([env[k] for k in pr.env_names]) - self._e_mid) / self._e_half
-        x = np.empty(3 + en.size)
-        x[3:] = en
+        x = np.empty(3 + en.size + self._c.size)
+        x[3:3 + en.size] = en
+        x[3 + en.size:] = self._c
         q, v = pr.q0, pr.qdot0
         out = np.empty((n + 1, 3))
         for k in range(n + 1):
-            x[0], x[1], x[2] = (q - g.q_mid) / g.q_half, v / g.v_half, 2 * k / n - 1
+            x[0], x[1], x[2] = (q - g.q_mid) / g.q_half, v / v_half, 2 * k / n - 1
             h = x
             for w, b in self._weights[:-1]:
                 h = np.tanh(w @ h + b)
             w, b = self._weights[-1]
             o = w @ h + b
-            out[k] = q, v, g.f_mid + g.f_half * o[0]
-            v_next = v + g.a_scale * o[1] * dt
+            out[k] = q, v, f_mid + f_half * o[0]
+            v_next = v + a_scale * o[1] * dt
             q, v = q + 0.5 * dt * (v + v_next), v_next
         return Plan.from_array(self.problem.dt, out)
 

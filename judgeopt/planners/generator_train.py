@@ -5,6 +5,11 @@ violations summed over the steps, plus R times the squared terminal errors. The 
 smoothing terms as the direct solve are added, so both planners minimise the same objective
 and differ only in how the constraints are held (soft here, hard there). Each epoch samples
 fresh environments from the problem's ranges (100 by default, Table 3) and takes one Adam step.
+
+A conditioned generator (`conditioned=LimitRanges(...)`) also draws q̇_max, f_min and f_max per
+trajectory, uniformly from the ranges, after the environments from the same seeded stream; the
+penalties of eq. (4) then use each trajectory's own limits (and the generator scales its
+outputs by them), so the loss is exactly a per-limit generator's loss for every sample.
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ import torch
 import torch.nn.functional as F
 
 from judgeopt.judge.model import Judge
-from judgeopt.planners.generator import Generator, GeneratorConfig
+from judgeopt.planners.generator import Generator, GeneratorConfig, LimitRanges
 from judgeopt.planners.problem import Problem
 
 
@@ -33,17 +38,25 @@ class GeneratorTrainConfig:
     progress: bool = True
 
 
-def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor) -> tuple[torch.Tensor, dict[str, float]]:
-    """Mean over the batch of eqs. (2)-(4) plus smoothing; parts returned for the history."""
+def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
+                   limits: torch.Tensor | None = None) -> tuple[torch.Tensor, dict[str, float]]:
+    """Mean over the batch of eqs. (2)-(4) plus smoothing; parts returned for the history.
+    `limits`: (B, 3) per-trajectory [q̇_max, f_min, f_max] for a conditioned generator
+    (default: its problem's); the limit penalties use each trajectory's own."""
     pr = gen.problem
-    x = gen.rollout(env)
+    lim = gen.condition(limits, env.shape[0])
+    x = gen.rollout(env, lim)
     q, v, f = x[..., 0], x[..., 1], x[..., 2]
+    if lim is None:
+        qdot_max, f_min, f_max = pr.qdot_max, pr.f_min, pr.f_max
+    else:  # (B, 1): broadcast along the steps
+        qdot_max, f_min, f_max = lim[:, 0:1], lim[:, 1:2], lim[:, 2:3]
     cols = [pr.env_names.index(k) for k in judge.config.env_names]
     logit = judge(x, env[:, cols])
     l1 = pr.P * F.softplus(-logit)
-    limits = ((F.relu(v[:, 1:] - pr.qdot_max) ** 2 + F.relu(pr.qdot_min - v[:, 1:]) ** 2
+    limits = ((F.relu(v[:, 1:] - qdot_max) ** 2 + F.relu(pr.qdot_min - v[:, 1:]) ** 2
                + F.relu(q[:, 1:] - pr.q_max) ** 2 + F.relu(pr.q_min - q[:, 1:]) ** 2).sum(1)
-              + (F.relu(f - pr.f_max) ** 2 + F.relu(pr.f_min - f) ** 2).sum(1))
+              + (F.relu(f - f_max) ** 2 + F.relu(f_min - f) ** 2).sum(1))
     q_end = env[:, pr.env_names.index("y_obj")] if isinstance(pr.q_end, str) else torch.full_like(q[:, -1], pr.q_end)
     terminal = (q[:, -1] - q_end) ** 2 + (v[:, -1] - pr.qdot_end) ** 2
     acc = torch.diff(v, dim=1) / pr.dt
@@ -55,9 +68,14 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor) -> tuple[tor
 
 
 def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | None = None,
-                    tc: GeneratorTrainConfig | None = None) -> tuple[Generator, list[dict[str, float]]]:
-    """A generator for `problem` trained against the frozen `judge`; seeded, deterministic."""
+                    tc: GeneratorTrainConfig | None = None,
+                    conditioned: LimitRanges | None = None) -> tuple[Generator, list[dict[str, float]]]:
+    """A generator for `problem` trained against the frozen `judge`; seeded, deterministic.
+    With `conditioned`, one generator for every q̇_max, f_min, f_max in those ranges (the
+    problem's other limits and its environment ranges as given)."""
     tc = tc or GeneratorTrainConfig()
+    if conditioned is not None:
+        conditioned.check(problem)
     if tc.threads:
         torch.set_num_threads(tc.threads)
     torch.manual_seed(tc.seed)
@@ -65,7 +83,7 @@ def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | No
     judge = judge.eval()
     for p in judge.parameters():
         p.requires_grad_(False)
-    gen = Generator(problem, config)
+    gen = Generator(problem, config, conditioned)
     opt = torch.optim.Adam(gen.parameters(), lr=tc.lr)
     sched = torch.optim.lr_scheduler.LambdaLR(
         opt, lambda k: tc.lr_final + (1 - tc.lr_final) * 0.5 * (1 + np.cos(np.pi * min(k, tc.epochs) / tc.epochs)))
@@ -77,8 +95,9 @@ def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | No
     t0 = time.perf_counter()
     for epoch in range(1, tc.epochs + 1):
         env = torch.tensor(problem.sample_env(rng, tc.batch), dtype=torch.float32)
+        lim = None if conditioned is None else torch.tensor(conditioned.sample(rng, tc.batch), dtype=torch.float32)
         opt.zero_grad(set_to_none=True)
-        loss, parts = generator_loss(gen, judge, env)
+        loss, parts = generator_loss(gen, judge, env, lim)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(gen.parameters(), tc.grad_clip)
         opt.step()
