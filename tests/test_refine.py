@@ -46,3 +46,20 @@ def test_one_round_aggregates_fine_tunes_resumes_and_installs(tmp_path):
     from judgeopt.judge.store import load_judge
 
     load_judge(tmp_path / "models" / "judge_refined")  # the hash still matches after the copy
+
+
+def test_generator_fine_tuning_starts_from_a_copy():
+    import torch
+
+    from judgeopt.judge.store import load_judge
+    from judgeopt.planners.generator_train import GeneratorTrainConfig, train_generator
+    from judgeopt.planners.store import load_generator
+
+    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    judge, _ = load_judge(ROOT / "models" / "judge_default")
+    init, _ = load_generator(ROOT / "models" / "generator_paper_sim")
+    before = {k: v.clone() for k, v in init.state_dict().items()}
+    tuned, _ = train_generator(problem, judge, tc=GeneratorTrainConfig(epochs=2, progress=False), init=init)
+    assert all(torch.equal(before[k], v) for k, v in init.state_dict().items())  # the original is untouched
+    w0, w1 = before["net.0.weight"], tuned.state_dict()["net.0.weight"]
+    assert not torch.equal(w0, w1) and (w1 - w0).abs().max() < 0.05  # moved, but from there

@@ -27,7 +27,7 @@ def _parser_type(name: str):
     t = str(_FIELD_TYPES[name])
     if name == "q_end":
         return _q_end
-    if name == "judge":
+    if name in ("judge", "ensemble", "trust_model"):
         return str
     return int if t == "int" else float
 

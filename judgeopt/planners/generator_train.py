@@ -14,6 +14,7 @@ outputs by them), so the loss is exactly a per-limit generator's loss for every 
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import asdict, dataclass
 
@@ -69,7 +70,8 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
 
 def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | None = None,
                     tc: GeneratorTrainConfig | None = None,
-                    conditioned: LimitRanges | None = None) -> tuple[Generator, list[dict[str, float]]]:
+                    conditioned: LimitRanges | None = None,
+                    init: Generator | None = None) -> tuple[Generator, list[dict[str, float]]]:
     """A generator for `problem` trained against the frozen `judge`; seeded, deterministic.
     With `conditioned`, one generator for every q̇_max, f_min, f_max in those ranges (the
     problem's other limits and its environment ranges as given)."""
@@ -83,7 +85,8 @@ def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | No
     judge = judge.eval()
     for p in judge.parameters():
         p.requires_grad_(False)
-    gen = Generator(problem, config, conditioned)
+    # `init`: fine-tune a copy of that generator (e.g. against a refined judge) instead of starting afresh
+    gen = copy.deepcopy(init).train() if init is not None else Generator(problem, config, conditioned)
     opt = torch.optim.Adam(gen.parameters(), lr=tc.lr)
     sched = torch.optim.lr_scheduler.LambdaLR(
         opt, lambda k: tc.lr_final + (1 - tc.lr_final) * 0.5 * (1 + np.cos(np.pi * min(k, tc.epochs) / tc.epochs)))

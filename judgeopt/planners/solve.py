@@ -85,8 +85,26 @@ class Planners:
             else:
                 out.notes.append("no generator trained for these limits: the direct solve starts from the min-jerk guess")
         if "direct" in methods:
-            cj = build_casadi_judge(jmodel, backend=casadi_backend or DEFAULT_BACKEND)
-            out.direct = DirectPlanner(problem, jmodel, cj)
+            backend = casadi_backend or DEFAULT_BACKEND
+            cj = build_casadi_judge(jmodel, backend=backend)
+            members, trust = None, None
+            if problem.ensemble:
+                from judgeopt.judge.ensemble import load_ensemble
+
+                judges, _ = load_ensemble(resolve(problem.ensemble))
+                for m in judges:
+                    check_compatible(m.config, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+                members = [build_casadi_judge(m, backend=backend) for m in judges]
+                out.notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
+                                 f"{len(members)} judges ({problem.ensemble})")
+            if problem.trust_region is not None:
+                from judgeopt.planners.trust_region import load_trust_region
+
+                trust = load_trust_region(resolve(problem.trust_model, (".json",)), 3 * (problem.steps + 1))
+                out.notes.append(f"direct: trust region, distance to the demonstrations <= {problem.trust_region:g} "
+                                 f"(demonstrations' median {trust.quantiles['q50']:.1f}, 95 % "
+                                 f"{trust.quantiles['q95']:.1f})")
+            out.direct = DirectPlanner(problem, jmodel, cj, members=members, trust=trust)
         if "cem" in methods:
             out.cem = CEMPlanner(problem, jmodel)
         out.methods = tuple(m for m in METHODS if m in methods)

@@ -172,7 +172,9 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
         # fine-tune the judge on the demonstrations plus every round's outcomes so far
         data = concatenate([base] + [a for a in aggregated for _ in range(cfg.weight)])
         init, _ = load_judge(judge)
-        tc = TrainConfig(epochs=cfg.judge_epochs, lr=cfg.judge_lr, seed=cfg.seed + k, progress=progress)
+        # one torch thread: the planning workers may still hold the other cores, and two threads
+        # fighting over one core made an epoch 8x slower here
+        tc = TrainConfig(epochs=cfg.judge_epochs, lr=cfg.judge_lr, seed=cfg.seed + k, threads=1, progress=progress)
         model, result = train_judge(data, test, tc=tc, init=init)
         new_judge = folder / "judge"
         metrics = {"val_accuracy": result.best["val_accuracy"], "best_epoch": result.best_epoch}
