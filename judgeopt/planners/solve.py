@@ -47,7 +47,7 @@ class Planners:
     methods: tuple[str, ...] = METHODS
 
     @classmethod
-    def load(cls, problem: Problem, methods: Sequence[str] = METHODS, judge: str | Path | None = None,
+    def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
              generator: str | Path | None = None, models_dir: str | Path = "models",
              casadi_backend: str | None = None) -> "Planners":
         """Load the judge, find or load the generator, build the direct solver (l4casadi

@@ -223,7 +223,7 @@ def install(out: str | Path, name: str, models_dir: str | Path = "models") -> li
     summary = json.loads(rounds[-1].read_text())
     copied = []
     for kind, src in (("judge", summary["judge"]), ("generator", summary["generator"])):
-        if not src:
+        if not src or Path(src).parent != rounds[-1].parent:  # only what refinement made (not a starting model)
             continue
         pt, js = Path(models_dir) / f"{kind}_{name}.pt", Path(models_dir) / f"{kind}_{name}.json"
         meta = json.loads(Path(src + ".json").read_text())
