@@ -24,8 +24,8 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from judgeopt.judge.model import Judge
-from judgeopt.planners.problem import InfeasibleProblemError, Problem
-from judgeopt.planners.result import PlanResult, constraint_residuals
+from judgeopt.planners.problem import Problem
+from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
 
 
@@ -84,11 +84,8 @@ class CEMPlanner:
         pr, cfg = self.problem, self.config
         env = pr.env_dict(env)
         t0 = time.perf_counter()
-        try:
-            pr.check_feasible(env)
-        except InfeasibleProblemError as exc:
-            return PlanResult(self.method, env, None, None, "infeasible", time.perf_counter() - t0,
-                              message=str(exc), info={"conflict": exc.conflict})
+        if (infeasible := infeasible_result(self.method, pr, env)) is not None:
+            return infeasible
         # seeded by the environment too, so a plan does not depend on which other plans ran first
         key = zlib.crc32(np.asarray([env[n] for n in pr.env_names], dtype=np.float64).tobytes())
         rng = np.random.default_rng([cfg.seed, key])

@@ -28,7 +28,7 @@ from judgeopt.judge.model import Judge
 from judgeopt.planners.dynamics import accelerations
 from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
-from judgeopt.planners.result import PlanResult, constraint_residuals
+from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs
@@ -158,11 +158,8 @@ class DirectPlanner:
         pr = self.problem
         env = pr.env_dict(env)
         t0 = time.perf_counter()
-        try:
-            pr.check_feasible(env)
-        except InfeasibleProblemError as exc:
-            return PlanResult(self.method, env, None, None, "infeasible", time.perf_counter() - t0,
-                              message=str(exc), info={"conflict": exc.conflict})
+        if (infeasible := infeasible_result(self.method, pr, env)) is not None:
+            return infeasible
         warm = "generator" if guess is not None else "min-jerk guess"
         guess = guess if guess is not None else default_guess(pr, env)
         x0 = np.clip(self._pack(guess), self._lbx, self._ubx)

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.planners.dynamics import dynamics_residual
-from judgeopt.planners.problem import Problem
+from judgeopt.planners.problem import InfeasibleProblemError, Problem
 from judgeopt.trajectory import Plan
 
 
@@ -73,3 +73,13 @@ class PlanResult:
                      units={"t": "s", "q": "m", "qdot": "m/s", "f": "N"})
         d.update({k: v for k, v in self.info.items() if k not in d})
         return d
+
+
+def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> PlanResult | None:
+    """The answer every planner gives when no trajectory can meet the limits (None if one can):
+    the conflict is reported before any solver or search runs."""
+    try:
+        problem.check_feasible(env)
+    except InfeasibleProblemError as exc:
+        return PlanResult(method, env, None, None, "infeasible", 0.0, message=str(exc), info={"conflict": exc.conflict})
+    return None

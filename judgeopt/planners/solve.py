@@ -17,8 +17,8 @@ from judgeopt.judge.model import Judge
 from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
-from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError
-from judgeopt.planners.result import PlanResult
+from judgeopt.planners.problem import Problem, ProblemError
+from judgeopt.planners.result import PlanResult, infeasible_result
 
 METHODS = ("amortized", "direct", "cem")
 REPO = Path(__file__).resolve().parents[2]
@@ -113,11 +113,9 @@ class Planners:
     def solve(self, env: dict[str, float], simulator=None) -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so)."""
         env = self.problem.env_dict(env)
-        try:
-            self.problem.check_feasible(env)
-        except InfeasibleProblemError as exc:
-            return [PlanResult(m, env, None, None, "infeasible", 0.0, message=str(exc),
-                               info={"conflict": exc.conflict}) for m in self.methods]
+        infeasible = [infeasible_result(m, self.problem, env) for m in self.methods]
+        if infeasible[0] is not None:
+            return infeasible
         results: list[PlanResult] = []
         guess = None
         if self.amortized is not None:
