@@ -36,6 +36,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     out = Path(args.out or f"out/evaluate/{args.table}")
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    _calibrate(problem, args.calibration, results)
     summary = summarise(rows, results)
     title = TITLES[args.table].format(qdot_max=problem.qdot_max)
     files = write_report(summary, out, args.table, title, results, rows)
@@ -46,11 +47,66 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _calibrate(problem, path: str | None, results: dict[str, list[dict]]) -> None:
+    """Recalibrated predictions from --calibration (or the problem's file, where it exists)."""
+    from judgeopt.planners.calibration import calibrate_rows, load_calibration
+    from judgeopt.planners.solve import resolve
+
+    if path is None and not (problem.calibration and resolve(problem.calibration).exists()):
+        return
+    cals = load_calibration(resolve(path or problem.calibration))
+    for rows in results.values():
+        calibrate_rows(rows, cals, problem.env_names)
+
+
 def _argv(args: argparse.Namespace) -> list[str]:
     extra = (["--problem", args.problem] if args.problem else []) + (["--methods", *args.methods] if args.methods else [])
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
         ["--judge-model", args.judge_model] if args.judge_model else [])
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    import json
+
+    from judgeopt.planners.calibration import (CalibrationError, describe, fit_from_rows, load_calibration,
+                                               save_calibration)
+
+    rows, sources = [], []
+    for folder in map(Path, args.folders):
+        files = sorted((folder / "partial").glob("*.json"))
+        if not files:
+            raise CalibrationError(f"{folder}: no evaluated plans (expected {folder}/partial/*.json from "
+                                   "`judgeopt evaluate ... --out FOLDER`)")
+        for f in files:
+            try:
+                rows += json.loads(f.read_text())
+            except json.JSONDecodeError:
+                raise CalibrationError(f"{f}: not valid JSON (a damaged chunk: delete it and rerun the evaluation "
+                                       "to redo it)") from None
+        sources.append(str(folder))
+    with_setting = [r for r in rows if r.get("setting")]
+    if not with_setting:
+        raise CalibrationError(f"{args.folders}: these plans carry no planner setting (made before calibration "
+                               "existed); rerun the evaluation")
+    env_names = list(with_setting[0]["environment"])
+    descriptions = {r["setting"]: r.get("setting_description", r["method"]) for r in with_setting}
+    fitted = fit_from_rows(with_setting, descriptions, env_names, min_n=args.min_n, sources=sources)
+    if not fitted:
+        raise CalibrationError(f"no setting has {args.min_n} replayed outcomes in {args.folders}; evaluate more "
+                               "environments or lower --min-n")
+    out = Path(args.out)
+    kept = load_calibration(out) if out.exists() and not args.replace else {}
+    save_calibration(out, {**kept, **fitted})
+    print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss (constant) |")
+    print("|---|---|---|---|---|---|")
+    for c in fitted.values():
+        d = describe(c)
+        ranges = ", ".join(f"{k} [{lo:g}, {hi:g}]" for k, (lo, hi) in d["ranges"].items())
+        print(f"| {c.setting} | {d['description']} | {c.n} | {d['success_pct']:.0f} % | {ranges} "
+              f"| {d['cv_log_loss']:.3f} ({d['constant_log_loss']:.3f}) |")
+    print(f"wrote {out} ({len(fitted)} settings fitted, {len(kept)} kept from before)")
+    return 0
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
@@ -69,6 +125,8 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    help="planners to include (default all of the table's)")
     e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
     e.add_argument("--judge-model", help="run every planner row against this judge instead (rows renamed)")
+    e.add_argument("--calibration", help="calibration file for the calibrated predictions (default: the problem's "
+                   "[models] calibration, where it exists)")
     e.add_argument("--out", help="output folder (default out/evaluate/TABLE)")
     e.add_argument("--models", default="models", help="folder searched for generators")
     e.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")
@@ -76,3 +134,14 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--chunk", type=int, default=10, help="environments per work unit (and per resume step)")
     e.add_argument("--quiet", action="store_true")
     e.set_defaults(func=cmd_evaluate)
+
+    c = sub.add_parser("calibrate", help="fit calibrated success predictions from evaluated (replayed) plans",
+                       description="For every planner setting (method, models, limits) with at least --min-n "
+                       "replayed outcomes in the given `judgeopt evaluate` folders, fit a logistic map from the "
+                       "judge's logit and the environment to the simulated success; planners then report it as "
+                       "calibrated_success. Evaluate on another --seed to test it.")
+    c.add_argument("folders", nargs="+", help="evaluation output folders (with partial/*.json)")
+    c.add_argument("--out", default="models/calibration_default.json")
+    c.add_argument("--min-n", type=int, default=50, help="fewest outcomes a setting needs")
+    c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
+    c.set_defaults(func=cmd_calibrate)

@@ -46,7 +46,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "terminal": ("q_end", "qdot_end"),
     "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
     "solver": ("p_min", "max_iter", "tol", "pessimism", "trust_region"),
-    "models": ("judge", "ensemble", "trust_model"),
+    "models": ("judge", "ensemble", "trust_model", "calibration"),
 }
 
 
@@ -88,6 +88,9 @@ class Problem:
     pessimism: float = 1.0
     trust_region: float | None = None
     trust_model: str = "models/trust_region_default"
+    # predicted success recalibrated on the planners' replayed outcomes (judgeopt calibrate);
+    # used where the file has the planner's setting, ignored where it is missing
+    calibration: str | None = "models/calibration_default.json"
     source: str = ""  # the file it came from (for messages and provenance)
 
     def __post_init__(self) -> None:

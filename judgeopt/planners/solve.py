@@ -45,6 +45,9 @@ class Planners:
     cem: CEMPlanner | None = None
     notes: list[str] = field(default_factory=list)
     methods: tuple[str, ...] = METHODS
+    settings: dict[str, str] = field(default_factory=dict)  # method -> calibration.setting_id
+    descriptions: dict[str, str] = field(default_factory=dict)
+    calibrators: dict = field(default_factory=dict)  # setting -> calibration.Calibrator
 
     @classmethod
     def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
@@ -53,7 +56,7 @@ class Planners:
         """Load the judge, find or load the generator, build the direct solver (l4casadi
         build cached by model hash: ~15 s the first time, well under 1 s after)."""
         from judgeopt.judge.casadi_fn import DEFAULT_BACKEND, build_casadi_judge
-        from judgeopt.judge.store import check_compatible, load_judge
+        from judgeopt.judge.store import check_compatible, load_judge, sha256_file
         from judgeopt.planners.store import find_generator, load_generator, matches
 
         bad = [m for m in methods if m not in METHODS]
@@ -63,6 +66,7 @@ class Planners:
         jmodel, jmeta = load_judge(jpath)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, judge_path=jpath)
+        shas = {"judge": jmeta["weights_sha256"]}
         if "amortized" in methods or "direct" in methods:
             gpath = resolve(generator, (".json",)) if generator else find_generator(
                 resolve(models_dir), problem, jmeta["weights_sha256"])
@@ -74,6 +78,7 @@ class Planners:
                 if gmeta.get("judge", {}).get("weights_sha256") != jmeta["weights_sha256"]:
                     out.notes.append(f"generator {gpath} was trained against another judge")
                 out.generator_path = Path(gpath)
+                shas["generator"] = gmeta["weights_sha256"]
                 out.amortized = AmortizedPlanner(gen, problem, jmodel)
             elif "amortized" in methods:
                 raise ProblemError(
@@ -95,12 +100,14 @@ class Planners:
                 for m in judges:
                     check_compatible(m.config, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
                 members = [build_casadi_judge(m, backend=backend) for m in judges]
+                shas["ensemble"] = sha256_file(resolve(problem.ensemble) / "ensemble.json")
                 out.notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
                                  f"{len(members)} judges ({problem.ensemble})")
             if problem.trust_region is not None:
                 from judgeopt.planners.trust_region import load_trust_region
 
                 trust = load_trust_region(resolve(problem.trust_model, (".json",)), 3 * (problem.steps + 1))
+                shas["trust_model"] = sha256_file(resolve(problem.trust_model, (".json",)).with_suffix(".json"))
                 out.notes.append(f"direct: trust region, distance to the demonstrations <= {problem.trust_region:g} "
                                  f"(demonstrations' median {trust.quantiles['q50']:.1f}, 95 % "
                                  f"{trust.quantiles['q95']:.1f})")
@@ -108,7 +115,30 @@ class Planners:
         if "cem" in methods:
             out.cem = CEMPlanner(problem, jmodel)
         out.methods = tuple(m for m in METHODS if m in methods)
+        out._settings(shas, jpath)
         return out
+
+    def _settings(self, shas: dict[str, str], jpath: Path) -> None:
+        """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
+        from judgeopt.planners.calibration import load_calibration, setting_id
+
+        p = self.problem
+        for m in self.methods:
+            used = {k: v for k, v in shas.items() if m != "cem" or k == "judge"}
+            self.settings[m] = setting_id(m, p, used)
+            extra = (f", ensemble {p.ensemble} - {p.pessimism:g} std" if m == "direct" and p.ensemble else "") + (
+                f", trust region {p.trust_region:g}" if m == "direct" and p.trust_region is not None else "")
+            self.descriptions[m] = (f"{m}, judge {jpath.name}, q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
+                                    + extra)
+        path = resolve(p.calibration) if p.calibration else None
+        if path is None or not path.exists():
+            return
+        cals = load_calibration(path)
+        self.calibrators = {s: cals[s] for s in self.settings.values() if s in cals}
+        missing = [m for m in self.methods if self.settings[m] not in cals]
+        if missing:
+            self.notes.append(f"{path} has no calibration for {', '.join(missing)} in this setting: only the judge's "
+                              "own prediction is shown (fit one with `judgeopt calibrate`)")
 
     def solve(self, env: dict[str, float], simulator=None) -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so)."""
@@ -127,6 +157,13 @@ class Planners:
             results.append(self.direct.solve(env, guess=guess))
         if self.cem is not None:
             results.append(self.cem.solve(env))
+        for r in results:
+            r.info.update(setting=self.settings[r.method], setting_description=self.descriptions[r.method])
+            cal = self.calibrators.get(r.info["setting"])
+            if cal is not None and r.predicted_success is not None:
+                e = [[env[k] for k in cal.env_names]]
+                r.info["calibrated_success"] = float(cal.predict(e, [r.predicted_success])[0])
+                r.info["calibration_covers"] = bool(cal.covers(e)[0])
         if simulator is not None:
             for r in results:
                 if r.plan is not None:
