@@ -91,3 +91,31 @@ def test_trust_region_model_and_constraint(tmp_path, judge, problem):
     assert held.info["trust_distance"] <= bound + 1e-6
     with pytest.raises(ProblemError, match="no trust-region model"):
         DirectPlanner(problem.with_overrides(trust_region=bound), judge, cj)
+
+
+def test_generator_trains_against_the_pessimistic_score_and_is_only_found_for_its_ensemble(tmp_path, problem):
+    import torch
+
+    from judgeopt.cli import main
+    from judgeopt.judge.ensemble import PessimisticJudge
+    from judgeopt.planners.store import find_generator, load_generator_meta
+
+    members, _ = load_ensemble(ROOT / "models" / "judge_ensemble")
+    x = torch.randn(4, problem.steps + 1, 3)
+    env = torch.tensor([[0.2, 1.5]] * 4)
+    with torch.no_grad():
+        logits = np.stack([m(x, env).numpy() for m in members])
+        np.testing.assert_allclose(PessimisticJudge(members, 1.0)(x, env).numpy(), pessimistic(logits, 1.0), rtol=1e-5)
+        np.testing.assert_allclose(PessimisticJudge(members, np.inf)(x, env).numpy(), logits.min(0), rtol=1e-6)
+
+    folder = tmp_path / "models"
+    args = ["train-generator", "--problem", "problems/paper_sim_slow.toml", "--epochs", "3", "--quiet"]
+    assert main(args + ["--out", str(folder / "generator_plain")]) == 0
+    assert main(args + ["--ensemble", "models/judge_ensemble", "--pessimism", "1",
+                        "--out", str(folder / "generator_pessimistic")]) == 0
+    assert load_generator_meta(folder / "generator_pessimistic")["loss_judge"]["pessimism"] == 1.0
+    plain = find_generator(folder, problem)
+    assert plain is not None and plain.name == "generator_plain"
+    with_ensemble = problem.with_overrides(ensemble="models/judge_ensemble", pessimism=1.0)
+    assert find_generator(folder, with_ensemble).name == "generator_pessimistic"
+    assert find_generator(folder, with_ensemble.with_overrides(pessimism=2.0)).name == "generator_plain"

@@ -40,6 +40,32 @@ def pessimistic(logits: np.ndarray, k: float) -> np.ndarray:
     return logits.mean(0) - k * logits.std(0)
 
 
+class PessimisticJudge:
+    """The members' pessimistic logit as one differentiable judge (same call as a Judge), so the
+    generator can be trained against it exactly as against a single judge."""
+
+    def __init__(self, members: list[Judge], k: float):
+        import torch
+
+        self.members, self.k = members, float(k)
+        self.config = members[0].config
+        self._torch = torch
+
+    def __call__(self, x, env):
+        logits = self._torch.stack([m(x, env) for m in self.members])
+        if np.isinf(self.k):
+            return logits.min(0).values
+        return logits.mean(0) - self.k * logits.std(0, unbiased=False)
+
+    def eval(self) -> "PessimisticJudge":
+        for m in self.members:
+            m.eval()
+        return self
+
+    def parameters(self):
+        return (p for m in self.members for p in m.parameters())
+
+
 def is_ensemble(path: str | Path) -> bool:
     return (Path(path) / "ensemble.json").exists()
 

@@ -27,7 +27,7 @@ def _parser_type(name: str):
     t = str(_FIELD_TYPES[name])
     if name == "q_end":
         return _q_end
-    if name in ("judge", "ensemble", "trust_model"):
+    if name in SECTIONS["models"]:
         return str
     return int if t == "int" else float
 
@@ -203,7 +203,18 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     torch.set_num_threads(args.jobs or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
                               threads=args.jobs, progress=not args.quiet)
-    gen, history = train_generator(problem, judge, tc=tc, conditioned=ranges)
+    loss_judge, pessimistic = judge, None
+    if problem.ensemble:  # train against the ensemble's pessimistic score instead of the one judge
+        from judgeopt.judge.ensemble import PessimisticJudge, load_ensemble
+        from judgeopt.judge.store import sha256_file
+
+        members, _ = load_ensemble(resolve(problem.ensemble))
+        for m in members:
+            check_compatible(m.config, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+        loss_judge = PessimisticJudge(members, problem.pessimism)
+        pessimistic = {"ensemble": problem.ensemble, "pessimism": problem.pessimism,
+                       "manifest_sha256": sha256_file(resolve(problem.ensemble) / "ensemble.json")}
+    gen, history = train_generator(problem, loss_judge, tc=tc, conditioned=ranges)
     # held-out check: fresh environments (another seed; for a conditioned generator, fresh
     # limits from its ranges too), judged and measured like a solve
     rng = np.random.default_rng(args.seed + 1_000_003)
@@ -224,7 +235,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
             "command": _command_line(),
             "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
             "judge": {"path": str(args.judge_model or problem.judge), "weights_sha256": jmeta["weights_sha256"]},
-            "metrics": metrics}
+            "metrics": metrics, **({"loss_judge": pessimistic} if pessimistic else {})}
     pt, js = save_generator(gen, args.out, meta)
     _write_history(history, Path(args.out))
     what = "environments" if ranges is None else "environments and limits"

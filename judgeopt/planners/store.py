@@ -90,22 +90,23 @@ def matches(meta: dict[str, Any], problem: Problem, judge_sha: str | None = None
             return False
     if mine != theirs:
         return False
+    lj = meta.get("loss_judge")  # trained against an ensemble's pessimistic score: only for that ensemble
+    if lj and not (problem.ensemble and Path(lj["ensemble"]).name == Path(problem.ensemble).name
+                   and lj["pessimism"] == problem.pessimism):
+        return False
     return judge_sha is None or meta.get("judge", {}).get("weights_sha256") == judge_sha
 
 
 def find_generator(folder: str | Path, problem: Problem, judge_sha: str | None = None) -> Path | None:
-    """A generator in `folder` for this problem's limits (and judge): the first per-limit one
-    trained for exactly these limits (sorted by name), else the first conditioned one whose
-    ranges contain them."""
-    found: dict[bool, Path] = {}
+    """A generator in `folder` for this problem's limits (and judge), by preference: one trained
+    against the problem's ensemble's pessimistic score (when it names an ensemble), one trained
+    for exactly these limits, one conditioned on ranges that contain them; then by name."""
+    found = []
     for js in sorted(Path(folder).glob("*.json")):
         try:
             meta = load_generator_meta(js)
         except GeneratorFileError:
             continue
-        kind = conditioned_ranges(meta) is not None
-        if kind not in found and matches(meta, problem, judge_sha):
-            if not kind:
-                return js.with_suffix("")
-            found[kind] = js.with_suffix("")
-    return found.get(True)
+        if matches(meta, problem, judge_sha):
+            found.append((not meta.get("loss_judge"), conditioned_ranges(meta) is not None, js.name, js.with_suffix("")))
+    return min(found)[-1] if found else None
