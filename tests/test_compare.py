@@ -58,7 +58,8 @@ def test_reliability_and_calibration_error():
 def test_compare_report_has_every_planner_and_a_reliability_diagram(tmp_path):
     rows = compare()
     assert [r.method for r in rows][:3] == ["amortized", "direct", "cem"]
-    assert {r.method for r in rows[3:]} == {"direct"} and all(r.overrides or r.judge != rows[1].judge for r in rows[3:])
+    assert {r.method for r in rows[3:]} == {"amortized", "direct"}
+    assert all(r.overrides or r.judge != rows[1].judge for r in rows[3:])
     fake = {r.key: [{"simulated_success": i % 4 != 0, "predicted_success": 0.95, "max_constraint_violation": 0.0,
                      "solve_time_s": 0.1, "env_index": i} for i in range(8)] for r in rows}
     summary = summarise(rows, fake)

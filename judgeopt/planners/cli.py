@@ -55,16 +55,18 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
 
 # -- solve -----------------------------------------------------------------------------------
 def _table(results) -> str:
-    head = ("method", "predicted", "simulated", "max q̇ [m/s]", "force [N]", "worst violation", "status", "time")
+    head = ("method", "predicted", "calibrated", "simulated", "max q̇ [m/s]", "force [N]", "worst violation", "status", "time")
     rows = [head]
     for r in results:
         sim = "-" if r.simulated_success is None else ("success" if r.simulated_success else "FAILURE")
         if r.plan is None:
-            rows.append((r.method, "-", sim, "-", "-", "-", r.status, f"{r.solve_time_s * 1e3:.1f} ms"))
+            rows.append((r.method, "-", "-", sim, "-", "-", "-", r.status, f"{r.solve_time_s * 1e3:.1f} ms"))
             continue
         viol = f"{r.max_constraint_violation:.1e} ({r.worst_constraint})" if r.max_constraint_violation > 0 else "0"
         t = r.solve_time_s
-        rows.append((r.method, f"{r.predicted_success:.3f}", sim, f"{r.plan.ydot.max():.3f}",
+        cal = r.info.get("calibrated_success")
+        cal = "-" if cal is None else f"{cal:.3f}" + ("" if r.info.get("calibration_covers") else " (outside fitted range)")
+        rows.append((r.method, f"{r.predicted_success:.3f}", cal, sim, f"{r.plan.ydot.max():.3f}",
                      f"{r.plan.f.min():.1f} to {r.plan.f.max():.1f}", viol,
                      r.status + (f" ({r.iterations} it)" if r.iterations is not None else ""),
                      f"{t * 1e3:.1f} ms" if t < 1 else f"{t:.2f} s"))
@@ -214,7 +216,15 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
         loss_judge = PessimisticJudge(members, problem.pessimism)
         pessimistic = {"ensemble": problem.ensemble, "pessimism": problem.pessimism,
                        "manifest_sha256": sha256_file(resolve(problem.ensemble) / "ensemble.json")}
-    gen, history = train_generator(problem, loss_judge, tc=tc, conditioned=ranges)
+    init = None
+    if args.init:  # fine-tune (e.g. against an ensemble or a refined judge) instead of starting afresh
+        from judgeopt.planners.store import load_generator, matches
+
+        init, imeta = load_generator(resolve(args.init, (".json",)))
+        if (imeta.get("conditioned") is not None) != (ranges is not None) or not matches(imeta, problem):
+            raise ProblemError(f"--init {args.init}: trained for other limits (or {'not ' if ranges else ''}"
+                               "conditioned); fine-tune a generator made for this problem's limits")
+    gen, history = train_generator(problem, loss_judge, tc=tc, conditioned=ranges, init=init)
     # held-out check: fresh environments (another seed; for a conditioned generator, fresh
     # limits from its ranges too), judged and measured like a solve
     rng = np.random.default_rng(args.seed + 1_000_003)
@@ -235,7 +245,8 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
             "command": _command_line(),
             "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
             "judge": {"path": str(args.judge_model or problem.judge), "weights_sha256": jmeta["weights_sha256"]},
-            "metrics": metrics, **({"loss_judge": pessimistic} if pessimistic else {})}
+            "metrics": metrics, **({"loss_judge": pessimistic} if pessimistic else {}),
+            **({"fine_tuned_from": str(args.init)} if args.init else {})}
     pt, js = save_generator(gen, args.out, meta)
     _write_history(history, Path(args.out))
     what = "environments" if ranges is None else "environments and limits"
@@ -289,6 +300,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--out", required=True, help="model path stem, e.g. models/generator_slow")
     t.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
     t.add_argument("--epochs", type=int, default=5000)
+    t.add_argument("--init", metavar="GENERATOR", help="fine-tune this generator instead of starting from scratch")
     t.add_argument("--batch", type=int, default=100, help="environments per epoch")
     t.add_argument("--lr", type=float, default=1e-3)
     t.add_argument("--seed", type=int, default=0)
