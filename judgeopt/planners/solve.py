@@ -126,7 +126,8 @@ class Planners:
         for m in self.methods:
             used = {k: v for k, v in shas.items() if m != "cem" or k == "judge"}
             self.settings[m] = setting_id(m, p, used)
-            extra = (f", ensemble {p.ensemble} - {p.pessimism:g} std" if m == "direct" and p.ensemble else "") + (
+            extra = (f", generator {self.generator_path.name}" if m != "cem" and self.generator_path else "") + (
+                f", ensemble {p.ensemble} - {p.pessimism:g} std" if m == "direct" and p.ensemble else "") + (
                 f", trust region {p.trust_region:g}" if m == "direct" and p.trust_region is not None else "")
             self.descriptions[m] = (f"{m}, judge {jpath.name}, q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
                                     + extra)

@@ -34,7 +34,7 @@ def cmd_refine(args: argparse.Namespace) -> int:
     print(md)
     print(f"wrote {out / 'refine.md'}, {out / 'refine.csv'}, {out / 'refine.png'}")
     if args.install:
-        for p in install(out, args.install, resolve("models")):
+        for p in install(out, args.install, resolve("models"), last=args.rounds):
             print(f"installed {p}")
     return 0
 
@@ -97,7 +97,7 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--jobs", type=int, default=-1)
     r.add_argument("--scheduler", help="address of a Dask distributed scheduler")
     r.add_argument("--chunk", type=int, default=5)
-    r.add_argument("--install", metavar="NAME", help="copy the last round's models to models/judge_NAME (and "
+    r.add_argument("--install", metavar="NAME", help="copy round --rounds' models to models/judge_NAME (and "
                    "generator_NAME)")
     r.add_argument("--quiet", action="store_true")
     r.set_defaults(func=cmd_refine)

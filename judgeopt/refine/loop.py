@@ -212,10 +212,11 @@ def _fine_tune_generator(problem: Problem, judge: str, generator: str | None, ou
     return out
 
 
-def install(out: str | Path, name: str, models_dir: str | Path = "models") -> list[Path]:
-    """Copy the last finished round's judge (and generator) into models/ under `name`: the
-    only way refinement changes shipped models."""
+def install(out: str | Path, name: str, models_dir: str | Path = "models", last: int | None = None) -> list[Path]:
+    """Copy the last finished round's (or round `last`'s) judge and generator into models/
+    under `name`: the only way refinement changes shipped models."""
     rounds = sorted(Path(out).glob("round_*/summary.json"), key=lambda p: int(p.parent.name.split("_")[1]))
+    rounds = [r for r in rounds if last is None or int(r.parent.name.split("_")[1]) <= last]
     if not rounds:
         from judgeopt.planners.problem import ProblemError
 
