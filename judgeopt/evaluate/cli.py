@@ -97,6 +97,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                                "environments or lower --min-n")
     out = Path(args.out)
     kept = load_calibration(out) if out.exists() and not args.replace else {}
+    kept = {k: v for k, v in kept.items() if k not in fitted}
     save_calibration(out, {**kept, **fitted})
     print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss (constant) |")
     print("|---|---|---|---|---|---|")

@@ -134,12 +134,8 @@ class Planners:
         path = resolve(p.calibration) if p.calibration else None
         if path is None or not path.exists():
             return
-        cals = load_calibration(path)
+        cals = load_calibration(path)  # a setting without one shows "-" (fit one with `judgeopt calibrate`)
         self.calibrators = {s: cals[s] for s in self.settings.values() if s in cals}
-        missing = [m for m in self.methods if self.settings[m] not in cals]
-        if missing:
-            self.notes.append(f"{path} has no calibration for {', '.join(missing)} in this setting: only the judge's "
-                              "own prediction is shown (fit one with `judgeopt calibrate`)")
 
     def solve(self, env: dict[str, float], simulator=None) -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so)."""
