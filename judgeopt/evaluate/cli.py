@@ -15,6 +15,7 @@ TITLES = {"table4": "Table 4: success rate by what the judge knows (q̇_max = 1.
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.report import markdown, summarise, write_report
     from judgeopt.evaluate.tables import TABLES, run_table
+    from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.planners.problem import ProblemError, load_problem
     from judgeopt.planners.solve import resolve
 
@@ -34,9 +35,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge_model).name}", judge=args.judge_model)
                 if r.judge else r for r in rows]
     out = Path(args.out or f"out/evaluate/{args.table}")
+    calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    _calibrate(problem, args.calibration, results)
+    for rs in results.values():
+        calibrate_rows(rs, calibrators, problem.env_names)
     summary = summarise(rows, results)
     title = TITLES[args.table].format(qdot_max=problem.qdot_max)
     files = write_report(summary, out, args.table, title, results, rows)
@@ -47,16 +50,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _calibrate(problem, path: str | None, results: dict[str, list[dict]]) -> None:
-    """Recalibrated predictions from --calibration (or the problem's file, where it exists)."""
-    from judgeopt.planners.calibration import calibrate_rows, load_calibration
+def _calibrators(problem, path: str | None) -> dict:
+    """From --calibration, or the problem's file where it exists (none: no calibrated column)."""
+    from judgeopt.planners.calibration import load_calibration
     from judgeopt.planners.solve import resolve
 
     if path is None and not (problem.calibration and resolve(problem.calibration).exists()):
-        return
-    cals = load_calibration(resolve(path or problem.calibration))
-    for rows in results.values():
-        calibrate_rows(rows, cals, problem.env_names)
+        return {}
+    return load_calibration(resolve(path or problem.calibration))
 
 
 def _argv(args: argparse.Namespace) -> list[str]:

@@ -86,6 +86,11 @@ class Calibrator:
         z = self.features(env, predicted) @ np.asarray(self.weights)
         return 1.0 / (1.0 + np.exp(-z))
 
+    def annotate(self, env: dict[str, float], predicted: float) -> dict[str, Any]:
+        """What a plan's result carries: the calibrated success, and whether `env` is in the fitted ranges."""
+        e = [[env[k] for k in self.env_names]]
+        return {"calibrated_success": float(self.predict(e, [predicted])[0]), "calibration_covers": bool(self.covers(e)[0])}
+
     def covers(self, env: np.ndarray) -> np.ndarray:
         env = np.atleast_2d(np.asarray(env, float))
         tol = 1e-9 + 0.02 * (np.asarray(self.env_high) - np.asarray(self.env_low))
@@ -173,14 +178,13 @@ def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_nam
     """Add `calibrated_success` (and whether the environment was in the fitted ranges) to
     evaluation rows whose setting has a calibrator; other rows are left as they are."""
     env_names = list(env_names)
+    seen = {k: set(c.fitted_on) for k, c in calibrators.items()}
     for r in rows:
         cal = calibrators.get(r.get("setting", ""))
         if cal is None or r.get("predicted_success") is None:
             continue
-        env = np.array([[r["environment"][k] for k in cal.env_names]])
-        r["calibrated_success"] = float(cal.predict(env, np.array([r["predicted_success"]]))[0])
-        r["calibration_covers"] = bool(cal.covers(env)[0])
-        r["calibration_fitted_on_env"] = env_fingerprint([r["environment"][k] for k in env_names]) in set(cal.fitted_on)
+        r.update(cal.annotate(r["environment"], r["predicted_success"]))
+        r["calibration_fitted_on_env"] = env_fingerprint([r["environment"][k] for k in env_names]) in seen[cal.setting]
 
 
 def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: list[str], min_n: int = 50,

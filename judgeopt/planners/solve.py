@@ -158,9 +158,7 @@ class Planners:
             r.info.update(setting=self.settings[r.method], setting_description=self.descriptions[r.method])
             cal = self.calibrators.get(r.info["setting"])
             if cal is not None and r.predicted_success is not None:
-                e = [[env[k] for k in cal.env_names]]
-                r.info["calibrated_success"] = float(cal.predict(e, [r.predicted_success])[0])
-                r.info["calibration_covers"] = bool(cal.covers(e)[0])
+                r.info.update(cal.annotate(env, r.predicted_success))
         if simulator is not None:
             for r in results:
                 if r.plan is not None:
