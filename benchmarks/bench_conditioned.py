@@ -10,6 +10,8 @@ f_max alone), median time per plan, and how the failures failed.
 
     python benchmarks/bench_conditioned.py --n 100 --jobs 2     # the documented table (~6 min on 2 cores)
     python benchmarks/bench_conditioned.py --n 10 --jobs 2      # quick look
+    python benchmarks/bench_conditioned.py --n 100 --jobs 2 --judge-model models/judge_refined \
+        --conditioned models/generator_conditioned_refined --per-limit models/generator_refined
 """
 
 from __future__ import annotations
@@ -80,6 +82,8 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=10, help="environments per parallel task")
     ap.add_argument("--problem", default="problems/paper_sim.toml")
     ap.add_argument("--qdot-max", type=float, nargs="+", default=[0.3, 0.4, 0.5, 0.7, 0.9, 1.0])
+    ap.add_argument("--judge-model", help="the judge that scores the plans (default: the problem's); pass the one "
+                    "the generators were trained against")
     ap.add_argument("--conditioned", default="models/generator_conditioned")
     ap.add_argument("--per-limit", nargs="*", default=["models/generator_paper_sim", "models/generator_paper_sim_slow"],
                     help="per-limit generators; each is compared at the limits it was trained for")
@@ -90,6 +94,8 @@ def main() -> None:
     from judgeopt.sim.rollout import RolloutConfig
 
     base = load_problem(resolve(args.problem))
+    if args.judge_model:
+        base = base.with_overrides(judge=args.judge_model)
     envs = base.sample_env(np.random.default_rng(args.seed), args.n)
     per_limit = {p: load_generator_meta(resolve(p, (".json",))) for p in args.per_limit}
     tasks, labels = [], []

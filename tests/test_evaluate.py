@@ -53,5 +53,12 @@ def test_run_table_resumes_and_reports(tmp_path):
     again = run_table(p, rows, 4, 0, tmp_path, n_jobs=1, chunk=2, progress=False)
     key = partial[0].name.rsplit("__", 1)[0]
     assert again[key][0]["simulated_success"] == first[0]["simulated_success"]
-    files = write_report(summarise(rows, again), tmp_path, "t", "title")
+    # ... unless it was planned with other models (weights retrained in place): then it is planned again
+    assert key.startswith("proposed__amortized")
+    stale = [dict(r, setting="another-setting") for r in first]
+    partial[0].write_text(json.dumps(stale))
+    redone = run_table(p, rows, 4, 0, tmp_path, n_jobs=1, chunk=2, progress=False)
+    assert redone[key][0]["simulated_success"] != first[0]["simulated_success"]
+    assert redone[key][0]["setting"] == res[key][0]["setting"] != "another-setting"
+    files = write_report(summarise(rows, redone), tmp_path, "t", "title")
     assert all(f.exists() for f in files) and "| random actions | random |" in files[0].read_text()

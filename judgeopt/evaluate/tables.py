@@ -103,15 +103,23 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
     partial = Path(out) / "partial"
     # chunks are named by the problem's content too: another problem never reuses them
     tag = hashlib.sha256(json.dumps(problem.to_dict(), sort_keys=True).encode()).hexdigest()[:8]
-    todo, done = [], {}
+    todo, done, stale = [], {}, 0
     for row in rows:
         envs = environments(problem, row, n, seed)
+        setting = _setting(problem, row, models_dir)
         for first in range(0, n, chunk):
             path = partial / f"{row.key}__{first:05d}_n{n}_s{seed}_p{tag}.json"
-            if path.exists():
-                done[path] = json.loads(path.read_text())
+            cached = json.loads(path.read_text()) if path.exists() else None
+            # a model retrained in place (same path, new weights) or a better-matching generator
+            # added since: the cached plans are another setting's, so plan again
+            if cached is not None and setting and any(r.get("setting", setting) != setting for r in cached):
+                cached, stale = None, stale + 1
+            if cached is not None:
+                done[path] = cached
             else:
                 todo.append((path, row, envs[first:first + chunk], first))
+    if stale and progress:
+        print(f"{stale} cached chunks were planned with other models than there are now: planning them again")
     if todo:
         jobs = (delayed(_with_path)(path, problem, row, e, first, seed, models_dir) for path, row, e, first in todo)
         with _backend(scheduler, n_jobs):
@@ -130,6 +138,16 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
     for key in results:
         results[key].sort(key=lambda r: r["env_index"])
     return results
+
+
+def _setting(problem: Problem, row: Row, models_dir: str) -> str | None:
+    """The row's calibration.setting_id with the models there are now (None: a baseline without one)."""
+    from judgeopt.planners.solve import METHODS, choose_models
+
+    if row.method not in METHODS:
+        return None
+    p = problem.with_overrides(**dict(row.overrides)) if row.overrides else problem
+    return choose_models(p, (row.method,), row.judge, None, models_dir).settings((row.method,))[row.method]
 
 
 def _with_path(path: Path, problem: Problem, row: Row, envs: np.ndarray, first: int, seed: int,

@@ -33,6 +33,47 @@ def resolve(path: str | Path, suffixes: Sequence[str] = ("",)) -> Path:
     return repo if any(repo.with_name(repo.name + s).exists() for s in suffixes) else p
 
 
+@dataclass(frozen=True)
+class ChosenModels:
+    """The model files a problem's planners use and their weights hashes; cheap to find (no
+    weights are read), so a cached result can be checked against the models there are now."""
+    problem: Problem
+    judge: Path
+    generator: Path | None
+    shas: dict[str, str]
+
+    def settings(self, methods: Sequence[str]) -> dict[str, str]:
+        """method -> calibration.setting_id: the CEM baseline uses the judge only."""
+        from judgeopt.planners.calibration import setting_id
+
+        return {m: setting_id(m, self.problem, {k: v for k, v in self.shas.items() if m != "cem" or k == "judge"})
+                for m in methods}
+
+
+def choose_models(problem: Problem, methods: Sequence[str], judge: str | Path | None = None,
+                  generator: str | Path | None = None, models_dir: str | Path = "models") -> ChosenModels:
+    """The judge (given or the problem's), the generator (given, or the best match in
+    models_dir for these limits and this judge), and the ensemble and trust model the direct
+    solve would use."""
+    from judgeopt.judge.store import load_meta, sha256_file
+    from judgeopt.planners.store import find_generator, load_generator_meta
+
+    jpath = resolve(judge or problem.judge, (".json",))
+    shas = {"judge": load_meta(jpath)["weights_sha256"]}
+    gpath = None
+    if "amortized" in methods or "direct" in methods:
+        gpath = resolve(generator, (".json",)) if generator else find_generator(resolve(models_dir), problem,
+                                                                                  shas["judge"])
+        if gpath is not None:
+            shas["generator"] = load_generator_meta(gpath)["weights_sha256"]
+    if "direct" in methods:
+        if problem.ensemble:
+            shas["ensemble"] = sha256_file(resolve(problem.ensemble) / "ensemble.json")
+        if problem.trust_region is not None:
+            shas["trust_model"] = sha256_file(resolve(problem.trust_model, (".json",)).with_suffix(".json"))
+    return ChosenModels(problem, jpath, gpath, shas)
+
+
 @dataclass
 class Planners:
     problem: Problem
@@ -56,20 +97,18 @@ class Planners:
         """Load the judge, find or load the generator, build the direct solver (l4casadi
         build cached by model hash: ~15 s the first time, well under 1 s after)."""
         from judgeopt.judge.casadi_fn import DEFAULT_BACKEND, build_casadi_judge
-        from judgeopt.judge.store import check_compatible, load_judge, sha256_file
-        from judgeopt.planners.store import find_generator, load_generator, matches
+        from judgeopt.judge.store import check_compatible, load_judge
+        from judgeopt.planners.store import load_generator, matches
 
         bad = [m for m in methods if m not in METHODS]
         if bad or not methods:
             raise ProblemError(f"unknown method(s) {bad}; choose from {list(METHODS)}")
-        jpath = resolve(judge or problem.judge, (".json",))
-        jmodel, jmeta = load_judge(jpath)
+        chosen = choose_models(problem, methods, judge, generator, models_dir)
+        jmodel, jmeta = load_judge(chosen.judge)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
-        out = cls(problem, jmodel, jmeta, judge_path=jpath)
-        shas = {"judge": jmeta["weights_sha256"]}
+        out = cls(problem, jmodel, jmeta, judge_path=chosen.judge)
         if "amortized" in methods or "direct" in methods:
-            gpath = resolve(generator, (".json",)) if generator else find_generator(
-                resolve(models_dir), problem, jmeta["weights_sha256"])
+            gpath = chosen.generator
             if gpath is not None:
                 gen, gmeta = load_generator(gpath)
                 if not matches(gmeta, problem):
@@ -78,7 +117,6 @@ class Planners:
                 if gmeta.get("judge", {}).get("weights_sha256") != jmeta["weights_sha256"]:
                     out.notes.append(f"generator {gpath} was trained against another judge")
                 out.generator_path = Path(gpath)
-                shas["generator"] = gmeta["weights_sha256"]
                 out.amortized = AmortizedPlanner(gen, problem, jmodel)
             elif "amortized" in methods:
                 raise ProblemError(
@@ -100,14 +138,12 @@ class Planners:
                 for m in judges:
                     check_compatible(m.config, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
                 members = [build_casadi_judge(m, backend=backend) for m in judges]
-                shas["ensemble"] = sha256_file(resolve(problem.ensemble) / "ensemble.json")
                 out.notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
                                  f"{len(members)} judges ({problem.ensemble})")
             if problem.trust_region is not None:
                 from judgeopt.planners.trust_region import load_trust_region
 
                 trust = load_trust_region(resolve(problem.trust_model, (".json",)), 3 * (problem.steps + 1))
-                shas["trust_model"] = sha256_file(resolve(problem.trust_model, (".json",)).with_suffix(".json"))
                 out.notes.append(f"direct: trust region, distance to the demonstrations <= {problem.trust_region:g} "
                                  f"(demonstrations' median {trust.quantiles['q50']:.1f}, 95 % "
                                  f"{trust.quantiles['q95']:.1f})")
@@ -115,17 +151,16 @@ class Planners:
         if "cem" in methods:
             out.cem = CEMPlanner(problem, jmodel)
         out.methods = tuple(m for m in METHODS if m in methods)
-        out._settings(shas, jpath)
+        out._settings(chosen)
         return out
 
-    def _settings(self, shas: dict[str, str], jpath: Path) -> None:
+    def _settings(self, chosen: "ChosenModels") -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.planners.calibration import load_calibration, setting_id
+        from judgeopt.planners.calibration import load_calibration
 
-        p = self.problem
+        p, jpath = self.problem, chosen.judge
+        self.settings = chosen.settings(self.methods)
         for m in self.methods:
-            used = {k: v for k, v in shas.items() if m != "cem" or k == "judge"}
-            self.settings[m] = setting_id(m, p, used)
             extra = (f", generator {self.generator_path.name}" if m != "cem" and self.generator_path else "") + (
                 f", ensemble {p.ensemble} - {p.pessimism:g} std" if m == "direct" and p.ensemble else "") + (
                 f", trust region {p.trust_region:g}" if m == "direct" and p.trust_region is not None else "")
