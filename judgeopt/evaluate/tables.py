@@ -68,6 +68,7 @@ ENSEMBLE = (("ensemble", "models/judge_ensemble"), ("pessimism", 1.0))
 ABLATIONS = (("amortized + ensemble in its loss (mean - 1 std)", "amortized", "models/judge_default", ENSEMBLE),
              ("direct + ensemble (mean - 1 std)", "direct", "models/judge_default", ENSEMBLE),
              ("direct + trust region (D <= 8.5)", "direct", "models/judge_default", (("trust_region", 8.5),)),
+             ("amortized, refined judge (and a generator trained against it)", "amortized", "models/judge_refined", ()),
              ("direct, refined judge", "direct", "models/judge_refined", ()))
 
 

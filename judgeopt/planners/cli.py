@@ -246,6 +246,9 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
             "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
             "judge": {"path": str(args.judge_model or problem.judge), "weights_sha256": jmeta["weights_sha256"]},
             "metrics": metrics, **({"loss_judge": pessimistic} if pessimistic else {}),
+            # where the environments were drawn from: a fine-tuned generator keeps its first
+            # problem (and input scaling) in "problem", but may have been trained on wider ranges
+            "train_environment": problem.to_dict()["environment"],
             **({"fine_tuned_from": str(args.init)} if args.init else {})}
     pt, js = save_generator(gen, args.out, meta)
     _write_history(history, Path(args.out))
