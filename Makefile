@@ -16,10 +16,11 @@ bench: setup
 	$(BIN)/python benchmarks/bench_rollout.py
 	$(BIN)/python benchmarks/bench_planners.py --n 100
 
-# remake the shipped generators (about 7 min each on one core)
+# remake the paper's shipped generators, against the judge trained on demonstrations only (about 7 min each
+# on one core); the refined judge's generators are fine-tuned from these (docs/remedies.md, docs/planners.md)
 generators: setup
-	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --out models/generator_paper_sim
-	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --out models/generator_paper_sim_slow
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --judge-model models/judge_default --out models/generator_paper_sim
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --judge-model models/judge_default --out models/generator_paper_sim_slow
 
 # remake the shipped datasets (about 30 min on 2 cores; resumable)
 data: setup

@@ -42,13 +42,14 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--jobs", type=int, default=-1)
     ap.add_argument("--problems", nargs="+", default=["problems/paper_sim.toml", "problems/paper_sim_slow.toml"])
+    ap.add_argument("--judge-model", help="the judge to plan against (default: each problem's)")
     ap.add_argument("--json", help="also write the summary as JSON here")
     args = ap.parse_args()
 
     summary = []
     t0 = time.perf_counter()
     for path in args.problems:
-        problem = load_problem(resolve(path))
+        problem = load_problem(resolve(path)).with_overrides(judge=args.judge_model)
         envs = problem.sample_env(np.random.default_rng(args.seed), args.n)
         rows = plan_many(problem, envs, n_jobs=args.jobs)
         for method in ("amortized", "direct"):

@@ -115,3 +115,14 @@ def test_planners_report_calibrated_success_for_their_setting(tmp_path):
     (r,) = planners.solve({"y_obj": 0.2, "mu": 2.1})
     assert r.info["setting"] == setting and r.info["calibration_covers"]
     assert r.info["calibrated_success"] < 0.6 < r.predicted_success  # the band, where the judge says 0.99
+
+
+def test_a_map_that_loses_to_the_success_rate_reports_the_rate():
+    """One failure in 100: no fold can learn from it, so the fitted map is the plain rate."""
+    rng = np.random.default_rng(3)
+    envs = np.column_stack([rng.uniform(0.1, 0.28, 100), rng.uniform(1, 3, 100)])
+    y = np.ones(100)
+    y[17] = 0
+    c = fit("s", "direct", "d", ["y_obj", "mu"], envs, np.full(100, 0.99), y)
+    assert c.constant and c.base_log_loss < c.cv_log_loss
+    assert np.allclose(c.predict(envs, np.full(100, 0.99)), 0.99)

@@ -100,13 +100,13 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     kept = load_calibration(out) if out.exists() and not args.replace else {}
     kept = {k: v for k, v in kept.items() if k not in fitted}
     save_calibration(out, {**kept, **fitted})
-    print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss (constant) |")
+    print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss (of the constant rate) |")
     print("|---|---|---|---|---|---|")
     for c in fitted.values():
         d = describe(c)
         ranges = ", ".join(f"{k} [{lo:g}, {hi:g}]" for k, (lo, hi) in d["ranges"].items())
         print(f"| {c.setting} | {d['description']} | {c.n} | {d['success_pct']:.0f} % | {ranges} "
-              f"| {d['cv_log_loss']:.3f} ({d['constant_log_loss']:.3f}) |")
+              f"| {d['cv_log_loss']:.3f} ({d['constant_log_loss']:.3f}){' -> the rate' if c.constant else ''} |")
     print(f"wrote {out} ({len(fitted)} settings fitted, {len(kept)} kept from before)")
     return 0
 

@@ -70,6 +70,7 @@ class Calibrator:
     base_log_loss: float  # the constant (overall success rate) predictor, same folds
     fitted_on: list[str] = field(default_factory=list)  # environment fingerprints
     sources: list[str] = field(default_factory=list)
+    constant: bool = False  # the map lost to the plain success rate in cross-validation, so it is the rate
 
     def features(self, env: np.ndarray, predicted: np.ndarray) -> np.ndarray:
         env = np.atleast_2d(np.asarray(env, float))
@@ -144,6 +145,10 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
     cal.l2 = min(scores, key=scores.get)
     cal.cv_log_loss, cal.base_log_loss = scores[cal.l2], _log_loss(base, y)
     cal.weights = _fit_logistic(X, y, cal.l2).tolist()
+    if cal.base_log_loss < cal.cv_log_loss:  # e.g. 1 failure in 100: nothing to map, report the rate
+        r = float(np.clip(y.mean(), 1e-3, 1 - 1e-3))
+        cal.weights = [float(np.log(r / (1 - r)))] + [0.0] * (X.shape[1] - 1)
+        cal.constant = True
     return cal
 
 
