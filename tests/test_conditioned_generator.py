@@ -170,11 +170,12 @@ def test_solve_with_a_freshly_trained_conditioned_generator(tmp_path, capsys):
     assert "needs --conditioned" in capsys.readouterr().err
 
 
-@pytest.mark.skipif(not SHIPPED.with_suffix(".json").exists(), reason="no shipped conditioned generator")
-def test_shipped_conditioned_generator_obeys_each_plans_limits(judge):
+@pytest.mark.parametrize("name, judge_name", [("generator_conditioned", "judge_default"),
+                                              ("generator_conditioned_refined", "judge_refined")])
+def test_shipped_conditioned_generator_obeys_each_plans_limits(name, judge_name):
     """On 200 environments with limits drawn from its ranges, every plan holds its own q̇_max,
     f_min, f_max to the soft tolerance, and ends at the object."""
-    g, meta = load_generator(SHIPPED)
+    g, meta = load_generator(ROOT / "models" / name)
     base = load_problem(ROOT / "problems" / "paper_sim.toml")
     rng = np.random.default_rng(7)
     envs, lims = base.sample_env(rng, 200), g.conditioned.sample(rng, 200)
@@ -186,7 +187,7 @@ def test_shipped_conditioned_generator_obeys_each_plans_limits(judge):
         worst = {k: max(v, res[k]) for k, v in worst.items()}
     assert max(worst[k] for k in CONDITION_NAMES) < SOFT_LIMIT_TOL, worst
     assert max(worst["q_end"], worst["qdot_end"]) < SOFT_LIMIT_TOL, worst
-    assert meta["judge"]["weights_sha256"] == json.loads((ROOT / "models" / "judge_default.json").read_text())[
+    assert meta["judge"]["weights_sha256"] == json.loads((ROOT / "models" / f"{judge_name}.json").read_text())[
         "weights_sha256"]
 
 
@@ -194,6 +195,7 @@ def test_shipped_conditioned_generator_obeys_each_plans_limits(judge):
 def test_solve_qdot_max_055_amortized_with_the_shipped_models(capsys):
     rc = main(["solve", "--qdot-max", "0.55", "--method", "amortized", "--json", "--no-simulate"])
     res = json.loads(capsys.readouterr().out)
-    assert rc == 0 and res["generator"].endswith("generator_conditioned")
+    # the default judge (problems/paper_sim.toml) is the refined one: its generator is picked
+    assert rc == 0 and res["generator"].endswith("generator_conditioned_refined")
     (r,) = res["results"]
     assert max(r["qdot"]) <= 0.55 + SOFT_LIMIT_TOL and r["predicted_success"] > 0.9
