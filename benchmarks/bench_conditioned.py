@@ -93,9 +93,7 @@ def main() -> None:
     from judgeopt.planners.store import load_generator_meta, matches
     from judgeopt.sim.rollout import RolloutConfig
 
-    base = load_problem(resolve(args.problem))
-    if args.judge_model:
-        base = base.with_overrides(judge=args.judge_model)
+    base = load_problem(resolve(args.problem)).with_overrides(judge=args.judge_model)
     envs = base.sample_env(np.random.default_rng(args.seed), args.n)
     per_limit = {p: load_generator_meta(resolve(p, (".json",))) for p in args.per_limit}
     tasks, labels = [], []

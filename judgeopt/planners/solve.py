@@ -154,7 +154,7 @@ class Planners:
         out._settings(chosen)
         return out
 
-    def _settings(self, chosen: "ChosenModels") -> None:
+    def _settings(self, chosen: ChosenModels) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
         from judgeopt.planners.calibration import load_calibration
 
