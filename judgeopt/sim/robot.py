@@ -10,11 +10,29 @@ import hashlib
 import importlib.metadata
 import math
 import os
+import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+
+#: Wrist inertia tensors (kg m^2, diagonal in the link frame) replacing example-robot-data's.
+#: Its UR5 file computes each wrist's cylinder inertia with a radius of 0.6 m instead of
+#: 0.06 m (izz = m r^2 / 2 = 0.219 kg m^2 for a 1.2 kg wrist, about 100x too large; wrist 3
+#: likewise). These are Universal Robots' own figures for the UR5, from
+#: Universal_Robots_ROS2_Description, config/ur5/physical_parameters.yaml (same masses,
+#: cylinders of radius 0.06 m for wrists 1 and 2 and 0.0375 m for wrist 3).
+UR5_WRIST_INERTIA = {
+    "wrist_1_link": (0.0020138896, 0.0020138896, 0.0021942),
+    "wrist_2_link": (0.0018310396, 0.0018310396, 0.0021942),
+    "wrist_3_link": (8.0624758e-05, 8.0624758e-05, 1.3211719e-04),
+}
+
+#: where the arm's link inertias come from: "universal_robots" (the wrists corrected as above)
+#: or "example_robot_data" (the file as shipped, before 2026-11-22)
+WRIST_INERTIA_SOURCES = ("universal_robots", "example_robot_data")
 
 
 class RobotDescriptionError(RuntimeError):
@@ -161,16 +179,32 @@ def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path) -> str:
 """
 
 
-def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None = None) -> Path:
+def correct_wrist_inertia(urdf: str) -> str:
+    """The UR5 URDF text with the wrist links' inertia tensors replaced by UR5_WRIST_INERTIA."""
+    for link, (ixx, iyy, izz) in UR5_WRIST_INERTIA.items():
+        pattern = re.compile(rf'(<link name="{link}">.*?<inertial>.*?)<inertia [^>]*/>', re.S)
+        new = f'<inertia ixx="{ixx:.10g}" ixy="0.0" ixz="0.0" iyy="{iyy:.10g}" iyz="0.0" izz="{izz:.10g}"/>'
+        urdf, n = pattern.subn(lambda m: m.group(1) + new, urdf, count=1)
+        if n != 1:
+            raise RobotDescriptionError(f"the installed ur5_robot.urdf has no inertia for {link}")
+    return urdf
+
+
+def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None = None,
+               wrist_inertia: str = "universal_robots") -> Path:
     """Write (once, atomically) the UR5 + spatula URDF and return its path.
 
     Mesh paths are rewritten from `package://` to absolute paths so PyBullet finds them.
     The file name carries a hash of its content: a changed geometry gives a new file.
     """
+    if wrist_inertia not in WRIST_INERTIA_SOURCES:
+        raise ValueError(f"wrist_inertia = {wrist_inertia!r}; choose one of {WRIST_INERTIA_SOURCES}")
     g = geometry or SpatulaGeometry()
     share = example_robot_data_prefix()
     src = (share / "example-robot-data/robots/ur_description/urdf/ur5_robot.urdf").read_text()
     src = src.replace("package://", str(share) + "/")
+    if wrist_inertia == "universal_robots":
+        src = correct_wrist_inertia(src)
     cache = Path(cache_dir or os.environ.get("JUDGEOPT_CACHE", Path.home() / ".cache" / "judgeopt"))
     cache.mkdir(parents=True, exist_ok=True)
     verts = blade_vertices(g)

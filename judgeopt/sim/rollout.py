@@ -83,6 +83,11 @@ class Simulator:
         self.controller = HybridController(self.scene.urdf_path, payload_weight=(g.handle_mass + g.blade_mass) * 9.81,
                                            config=controller)
         self.z_contact = g.tcp_height_on_plate()
+        # PyBullet reports the sensor joint's reaction in its child link's inertial frame,
+        # which it rotates to the principal axes of the URDF's inertia (the handle is tilted):
+        # rotate readings back to the link frame the controller expects
+        orn = pb.getDynamicsInfo(self.scene.robot, self.scene.ft_joint, physicsClientId=self.scene.client)[4]
+        self._sensor_rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
         self._ik_cache: dict[float, np.ndarray] = {}
 
     # -- arm placement -----------------------------------------------------------------
@@ -125,7 +130,7 @@ class Simulator:
             self._sensor_valid = True
             return q, None
         ft = pb.getJointState(sc.robot, sc.ft_joint, physicsClientId=sc.client)[2]
-        return q, np.array(ft[:3])
+        return q, self._sensor_rotation @ np.array(ft[:3])
 
     def _apply(self, tau: np.ndarray) -> None:
         sc = self.scene

@@ -30,6 +30,10 @@ ARM_JOINTS = (
 ENV_RANGES = {"y_obj": (0.05, 0.35), "mu": (0.01, 5.0)}
 
 
+#: SceneConfig.plant_inertia: which inertias PyBullet integrates
+PLANT_INERTIA = ("urdf", "collision_shapes")
+
+
 class EnvironmentRangeError(ValueError):
     """An environment value outside the physical range of the scene."""
 
@@ -73,6 +77,13 @@ class SceneConfig:
     plate_stiffness: float = 1.2e3  # N/m per contact point
     plate_damping: float = 1.0e2  # N s/m
     solver_iterations: int = 50
+    # The plant's link inertias. "urdf": PyBullet integrates the URDF's inertias, the ones
+    # Pinocchio (and so M and Lambda in the controller) reads, so plant and model agree (to
+    # 1e-12, tests/test_scene.py). "collision_shapes": PyBullet's default, inertias derived
+    # from the collision meshes: a model error of up to ~19 % of M's largest entry, the scene
+    # of every dataset made before 2026-11-22 (with wrist_inertia = "example_robot_data").
+    plant_inertia: str = "urdf"
+    wrist_inertia: str = "universal_robots"  # judgeopt.sim.robot.WRIST_INERTIA_SOURCES
 
 
 def check_environment(y_obj: float, mu: float) -> None:
@@ -93,9 +104,12 @@ class Scene:
             fixedTimeStep=cfg.timestep, numSolverIterations=cfg.solver_iterations, deterministicOverlappingPairs=1,
             physicsClientId=c,
         )
-        self.urdf_path = robot_urdf(cfg.spatula)
+        if cfg.plant_inertia not in PLANT_INERTIA:
+            raise ValueError(f"plant_inertia = {cfg.plant_inertia!r}; choose one of {PLANT_INERTIA}")
+        self.urdf_path = robot_urdf(cfg.spatula, wrist_inertia=cfg.wrist_inertia)
+        flags = pb.URDF_USE_INERTIA_FROM_FILE if cfg.plant_inertia == "urdf" else 0
         with c_stdout_to_stderr():  # URDF warnings about the massless root link
-            self.robot = pb.loadURDF(str(self.urdf_path), useFixedBase=True, physicsClientId=c)
+            self.robot = pb.loadURDF(str(self.urdf_path), useFixedBase=True, flags=flags, physicsClientId=c)
         names = {pb.getJointInfo(self.robot, j, physicsClientId=c)[1].decode(): j for j in range(pb.getNumJoints(self.robot, physicsClientId=c))}
         links = {pb.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j for j in names.values()}
         self.arm_joints = [names[n] for n in ARM_JOINTS]
