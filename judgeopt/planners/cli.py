@@ -14,7 +14,8 @@ from typing import Any
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
-EXIT_INFEASIBLE = 3
+EXIT_INFEASIBLE = 3  # the limits admit no plan at all (found before any solver runs)
+EXIT_UNLIKELY = 4  # plans were made, but no method's plan is likely to succeed
 
 _FIELD_TYPES = {f.name: f.type for f in dataclasses.fields(Problem)}
 
@@ -55,18 +56,20 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
 
 # -- solve -----------------------------------------------------------------------------------
 def _table(results) -> str:
-    head = ("method", "predicted", "calibrated", "simulated", "max q̇ [m/s]", "force [N]", "worst violation", "status", "time")
+    head = ("method", "judge", "success p", "verdict", "simulated", "max q̇ [m/s]", "force [N]", "worst violation",
+            "status", "time")
     rows = [head]
     for r in results:
         sim = "-" if r.simulated_success is None else ("success" if r.simulated_success else "FAILURE")
         if r.plan is None:
-            rows.append((r.method, "-", "-", sim, "-", "-", "-", r.status, f"{r.solve_time_s * 1e3:.1f} ms"))
+            rows.append((r.method, "-", "-", "-", sim, "-", "-", "-", r.status, f"{r.solve_time_s * 1e3:.1f} ms"))
             continue
         viol = f"{r.max_constraint_violation:.1e} ({r.worst_constraint})" if r.max_constraint_violation > 0 else "0"
         t = r.solve_time_s
-        cal = r.info.get("calibrated_success")
-        cal = "-" if cal is None else f"{cal:.3f}" + ("" if r.info.get("calibration_covers") else " (outside fitted range)")
-        rows.append((r.method, f"{r.predicted_success:.3f}", cal, sim, f"{r.plan.ydot.max():.3f}",
+        p = f"{r.success_probability:.3f} ({r.probability_source}" + (
+            ", outside fitted range)" if r.probability_source == "calibrated" and not r.info.get("calibration_covers")
+            else ")")
+        rows.append((r.method, f"{r.predicted_success:.3f}", p, r.verdict, sim, f"{r.plan.ydot.max():.3f}",
                      f"{r.plan.f.min():.1f} to {r.plan.f.max():.1f}", viol,
                      r.status + (f" ({r.iterations} it)" if r.iterations is not None else ""),
                      f"{t * 1e3:.1f} ms" if t < 1 else f"{t:.2f} s"))
@@ -113,6 +116,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
         sim = Simulator()
     results = planners.solve(env, simulator=sim)
+    planned = [r for r in results if r.verdict is not None]
+    unlikely = bool(planned) and all(r.verdict == "unlikely" for r in planned)
+    suggestions = []
+    if unlikely and args.suggest:
+        from judgeopt.planners.suggest import suggest
+
+        t_s = time.perf_counter()
+        suggestions = suggest(planners, env, results)
+        t_suggest = time.perf_counter() - t_s
     several = len(results) > 1
     files = []
     for r in results:
@@ -132,8 +144,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
         files.append(plot_plans(problem, results, args.plot))
     infeasible = any(r.status == "infeasible" for r in results)
+    verdict = "infeasible" if infeasible else "unlikely" if unlikely else "likely"
     if args.json:
-        print(json.dumps({"status": "infeasible" if infeasible else "ok", "problem": problem.to_dict(),
+        print(json.dumps({"status": "infeasible" if infeasible else "ok", "verdict": verdict,
+                          "suggestions": [x.to_json() for x in suggestions], "problem": problem.to_dict(),
                           "environment": env, "judge": str(planners.judge_path),
                           "judge_sha256": planners.judge_meta["weights_sha256"],
                           "generator": str(planners.generator_path) if planners.generator_path else None,
@@ -163,10 +177,23 @@ def cmd_solve(args: argparse.Namespace) -> int:
                       f"{'on' if r.info['sim_on_blade'] else 'off'} the blade "
                       f"(success: rise >= {100 * rc.success_rise:g} cm, on the blade, off the plate, "
                       f"within {100 * rc.max_overhang:g} cm)")
+        if any(r.probability_source == "judge" for r in results):
+            print("note: a 'judge' success p is the judge's own score of the plan, not checked against replayed "
+                  "outcomes of this planner setting (fit a calibration with `judgeopt calibrate`)")
         for f in files:
             print(f"wrote {f}")
+        if unlikely:
+            top = max(planned, key=lambda r: r.success_probability)
+            print(f"judgeopt solve: no plan is likely to succeed under these limits (best p = "
+                  f"{top.success_probability:.2f}, {top.method})")
+            for x in suggestions:
+                print(f"  {x.text()}")
+            if args.suggest:
+                print(f"  (searched by re-planning in {t_suggest:.1f} s)" if suggestions else
+                      "  no single limit relaxed within the demonstrations' range (f_max, q̇_max, f_min) makes a plan "
+                      "likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
-    return EXIT_INFEASIBLE if infeasible else 0
+    return EXIT_INFEASIBLE if infeasible else EXIT_UNLIKELY if unlikely else 0
 
 
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
@@ -278,7 +305,8 @@ def _write_history(history: list[dict], out: Path) -> None:
 def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s = sub.add_parser("solve", help="plan a scoop under the problem's limits with the shipped models",
                        description="Plan with the amortised generator and/or the direct Ipopt solve against the "
-                       "judge; show predicted (and with --simulate, simulated) success. Exit 3 if infeasible.")
+                       "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
+                       "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
     add_problem_arguments(s)
     s.add_argument("--method", choices=("direct", "amortized", "cem", "both", "all"), default="both",
                    help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
@@ -294,6 +322,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
     s.add_argument("--generator", help="generator model (default: one in --models trained for these limits)")
     s.add_argument("--models", default="models", help="folder searched for generators")
+    s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
+                   help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
+                   "limit that makes a plan likely (default: on; --no-suggest turns it off)")
     s.set_defaults(func=cmd_solve)
 
     t = sub.add_parser("train-generator", help="train the amortised generator through the frozen judge (eqs. 2-4)",

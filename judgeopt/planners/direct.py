@@ -16,6 +16,7 @@ environments re-uses it.
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass
 
@@ -26,10 +27,12 @@ from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
 from judgeopt.planners.dynamics import accelerations
-from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError
+from judgeopt.planners.problem import SECTIONS, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
+
+LIMITS = set(SECTIONS["limits"])  # what with_limits may change
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs
 SCALE_Q, SCALE_V, SCALE_A, SCALE_F = 0.1, 0.5, 5.0, 10.0
@@ -117,6 +120,11 @@ class DirectPlanner:
                 "ipopt.sb": "yes", "print_time": False}
         self.solver = cs.nlpsol("judgeopt_direct", "ipopt", nlp, opts)
         self._n_eq = 2 * n + 2
+        self._bounds()
+
+    def _bounds(self) -> None:
+        """Variable bounds from the problem's limits, and the constraint bounds."""
+        pr, n = self.problem, self.problem.steps
         lb = np.concatenate([np.full(n, pr.q_min / SCALE_Q), np.full(n, pr.qdot_min / SCALE_V), np.full(n, -np.inf),
                              np.full(n + 1, pr.f_min / SCALE_F)])
         ub = np.concatenate([np.full(n, pr.q_max / SCALE_Q), np.full(n, pr.qdot_max / SCALE_V), np.full(n, np.inf),
@@ -129,6 +137,18 @@ class DirectPlanner:
             self._lbg, self._ubg = np.append(self._lbg, lp), np.append(self._ubg, np.inf)
         if pr.trust_region is not None:
             self._lbg, self._ubg = np.append(self._lbg, -np.inf), np.append(self._ubg, 1.0)
+
+    def with_limits(self, problem: Problem) -> "DirectPlanner":
+        """The same compiled solver for a problem that differs only in its position, velocity
+        and force limits (they are variable bounds): no rebuild, so re-planning under relaxed
+        or sampled limits costs one solve."""
+        same = {k: v for k, v in problem.to_dict().items() if k not in LIMITS}
+        if same != {k: v for k, v in self.problem.to_dict().items() if k not in LIMITS}:
+            raise ProblemError("with_limits: the problems differ in more than their limits; build a new DirectPlanner")
+        new = copy.copy(self)
+        new.problem = problem
+        new._bounds()
+        return new
 
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""

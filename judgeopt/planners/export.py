@@ -8,6 +8,10 @@ Plan JSON (format "judgeopt-plan", version 1; `write_json`, read back by `read_p
     method, status, message, solve_time_s, iterations
     environment                 {name: value}
     predicted_success           the judge's score of the plan
+    success_probability         the probability judgeopt stands behind: calibrated on replayed
+                                outcomes of this planner setting where a calibration covers it,
+                                else the judge's; probability_source says which ("calibrated",
+                                "judge"); verdict "likely" (>= 0.5) or "unlikely"
     simulated_success           true/false if replayed in the simulator, else null; `simulation`
                                 holds what the replay measured
     max_constraint_violation, worst_constraint, residuals   every constraint's worst violation
@@ -146,6 +150,8 @@ def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any]
         "solve_time_s": result.solve_time_s, "iterations": result.iterations, "solver_info": other,
         "environment": result.env,
         "predicted_success": result.predicted_success,
+        "success_probability": result.success_probability, "probability_source": result.probability_source or None,
+        "verdict": result.verdict,
         "simulated_success": result.simulated_success, "simulation": sim or None,
         "max_constraint_violation": result.max_constraint_violation, "worst_constraint": result.worst_constraint,
         "residuals": result.residuals,
@@ -262,7 +268,8 @@ def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path
             if r.plan is None:
                 continue
             v = getattr(r.plan, {"q": "y", "qdot": "ydot", "f": "f"}[key])
-            p = f", p = {r.predicted_success:.3f}" if r.predicted_success is not None else ""
+            p = (f", p = {r.success_probability:.2f} ({r.probability_source}), {r.verdict}"
+                 if r.success_probability is not None else "")
             ax.plot(r.plan.t, v, marker=".", ms=3, label=f"{r.method}{p}")
         if key == "q" and results:
             ax.axhline(problem.terminal_position(results[0].env), color="k", ls=":", lw=1, label="q_end")

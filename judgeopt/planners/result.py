@@ -16,6 +16,9 @@ from judgeopt.planners.dynamics import dynamics_residual
 from judgeopt.planners.problem import InfeasibleProblemError, Problem
 from judgeopt.trajectory import Plan
 
+#: a plan is "likely" to succeed at or above this success probability
+LIKELY = 0.5
+
 
 def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) -> dict[str, float]:
     """Worst violation of each constraint (>= 0; 0 when satisfied), in the constraint's units."""
@@ -51,6 +54,15 @@ class PlanResult:
     message: str = ""
     simulated_success: bool | None = None
     info: dict[str, Any] = field(default_factory=dict)
+    success_probability: float | None = None  # the probability the tool stands behind (see assess)
+    probability_source: str = ""  # "calibrated" or "judge"
+
+    @property
+    def verdict(self) -> str | None:
+        """"likely" (success_probability >= LIKELY) or "unlikely"; None without a plan."""
+        if self.success_probability is None:
+            return None
+        return "likely" if self.success_probability >= LIKELY else "unlikely"
 
     @property
     def max_constraint_violation(self) -> float | None:
@@ -66,6 +78,8 @@ class PlanResult:
             "predicted_success": self.predicted_success, "simulated_success": self.simulated_success,
             "max_constraint_violation": self.max_constraint_violation, "worst_constraint": self.worst_constraint,
             "residuals": self.residuals, "solve_time_s": self.solve_time_s, "iterations": self.iterations,
+            "success_probability": self.success_probability, "probability_source": self.probability_source or None,
+            "verdict": self.verdict,
         }
         if self.plan is not None:
             p = self.plan
@@ -73,6 +87,19 @@ class PlanResult:
                      units={"t": "s", "q": "m", "qdot": "m/s", "f": "N"})
         d.update({k: v for k, v in self.info.items() if k not in d})
         return d
+
+
+def assess(result: PlanResult) -> PlanResult:
+    """Set the probability the tool stands behind and so the verdict: the calibrated one where a
+    calibration was fitted on replayed outcomes of this planner setting, else the judge's own
+    (never checked against outcomes for this setting; a judge is most over-confident exactly
+    where a planner maximised it)."""
+    cal = result.info.get("calibrated_success")
+    if cal is not None:
+        result.success_probability, result.probability_source = float(cal), "calibrated"
+    elif result.predicted_success is not None and result.plan is not None:
+        result.success_probability, result.probability_source = float(result.predicted_success), "judge"
+    return result
 
 
 def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> PlanResult | None:

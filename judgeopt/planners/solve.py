@@ -9,6 +9,7 @@ evaluation all go through here, so they measure the same thing.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
@@ -18,7 +19,7 @@ from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import PlanResult, infeasible_result
+from judgeopt.planners.result import PlanResult, assess, infeasible_result
 
 METHODS = ("amortized", "direct", "cem")
 REPO = Path(__file__).resolve().parents[2]
@@ -89,6 +90,9 @@ class Planners:
     settings: dict[str, str] = field(default_factory=dict)  # method -> calibration.setting_id
     descriptions: dict[str, str] = field(default_factory=dict)
     calibrators: dict = field(default_factory=dict)  # setting -> calibration.Calibrator
+    chosen: ChosenModels | None = None
+    generator_meta: dict | None = None
+    calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
 
     @classmethod
     def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
@@ -116,7 +120,7 @@ class Planners:
                                      "(reported below)")
                 if gmeta.get("judge", {}).get("weights_sha256") != jmeta["weights_sha256"]:
                     out.notes.append(f"generator {gpath} was trained against another judge")
-                out.generator_path = Path(gpath)
+                out.generator_path, out.generator_meta = Path(gpath), gmeta
                 out.amortized = AmortizedPlanner(gen, problem, jmodel)
             elif "amortized" in methods:
                 raise ProblemError(
@@ -159,6 +163,7 @@ class Planners:
         from judgeopt.planners.calibration import load_calibration
 
         p, jpath = self.problem, chosen.judge
+        self.chosen = chosen
         self.settings = chosen.settings(self.methods)
         for m in self.methods:
             extra = (f", generator {self.generator_path.name}" if m != "cem" and self.generator_path else "") + (
@@ -166,23 +171,52 @@ class Planners:
                 f", trust region {p.trust_region:g}" if m == "direct" and p.trust_region is not None else "")
             self.descriptions[m] = (f"{m}, judge {jpath.name}, q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
                                     + extra)
-        path = resolve(p.calibration) if p.calibration else None
-        if path is None or not path.exists():
-            return
-        cals = load_calibration(path)  # a setting without one shows "-" (fit one with `judgeopt calibrate`)
-        self.calibrators = {s: cals[s] for s in self.settings.values() if s in cals}
+        if not self.calibration_file:
+            path = resolve(p.calibration) if p.calibration else None
+            if path is None or not path.exists():
+                return
+            # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
+            self.calibration_file = load_calibration(path)
+        self.calibrators = {s: self.calibration_file[s] for s in self.settings.values() if s in self.calibration_file}
 
-    def solve(self, env: dict[str, float], simulator=None) -> list[PlanResult]:
-        """Every requested method for one environment (infeasible limits: one result saying so)."""
+    def with_limits(self, **limits: float) -> "Planners":
+        """The same models under other position, velocity or force limits, without reloading or
+        rebuilding anything: the direct solver swaps its bounds, a conditioned generator takes the
+        limits as inputs (a generator that does not cover them only warm-starts the direct
+        solve), and each method's setting (and so its calibration) is looked up anew."""
+        from judgeopt.planners.store import matches
+
+        problem = self.problem.with_overrides(**limits)
+        out = dataclasses.replace(self, problem=problem, notes=list(self.notes), settings={}, descriptions={},
+                                  calibrators={})
+        if self.amortized is not None:
+            covered = self.generator_meta is not None and matches(self.generator_meta, problem)
+            out.amortized = AmortizedPlanner(self.amortized.generator, problem if covered else self.problem,
+                                             self.judge)
+            if not covered and "amortized" in self.methods:
+                out.methods = tuple(m for m in self.methods if m != "amortized")
+                if not out.methods:
+                    raise ProblemError(f"the generator {self.generator_path} was not trained for {limits}; "
+                                       "plan with --method direct or both")
+        if self.direct is not None:
+            out.direct = self.direct.with_limits(problem)
+        if self.cem is not None:
+            out.cem = CEMPlanner(problem, self.judge, self.cem.config)
+        out._settings(dataclasses.replace(self.chosen, problem=problem))
+        return out
+
+    def solve(self, env: dict[str, float], simulator=None, guess=None) -> list[PlanResult]:
+        """Every requested method for one environment (infeasible limits: one result saying so).
+        `guess`: the direct solve's warm start instead of the generator's plan."""
         env = self.problem.env_dict(env)
         infeasible = [infeasible_result(m, self.problem, env) for m in self.methods]
         if infeasible[0] is not None:
             return infeasible
         results: list[PlanResult] = []
-        guess = None
         if self.amortized is not None:
             r = self.amortized.solve(env)
-            guess = r.plan
+            # under other limits (a generator that does not cover them): the direct solve clips it
+            guess = guess if guess is not None else r.plan
             if "amortized" in self.methods:
                 results.append(r)
         if self.direct is not None:
@@ -194,6 +228,7 @@ class Planners:
             cal = self.calibrators.get(r.info["setting"])
             if cal is not None and r.predicted_success is not None:
                 r.info.update(cal.annotate(env, r.predicted_success))
+            assess(r)
         if simulator is not None:
             for r in results:
                 if r.plan is not None:

@@ -1,0 +1,123 @@
+"""What would make an unlikely plan likely: the smallest relaxation of one limit, found by re-planning.
+
+For each limit a user could relax (f_max up, q̇_max up, f_min down), the planners re-plan the
+same environment under the relaxed limit; the smallest relaxation under which a plan is
+"likely" is reported. Relaxing a limit only enlarges the set of allowed plans, so the best
+achievable probability grows with the relaxation: the search tries the widest relaxation the
+demonstrations support first (none likely there: nothing to suggest for that limit), then
+bisects down to the limit's resolution. Screening uses the fastest planner that covers the
+relaxed limits (the amortised generator when it was trained for them, else the direct solve);
+the value found is then re-planned with every method and that result is what is reported.
+Nothing here is guessed: each figure is a planner's result under the suggested limit.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from judgeopt.data.commands import RandomCommandConfig
+from judgeopt.planners.problem import ProblemError
+from judgeopt.planners.result import LIKELY, PlanResult
+from judgeopt.planners.solve import Planners
+
+_DEMOS = RandomCommandConfig()
+
+
+@dataclass(frozen=True)
+class Relaxation:
+    """One limit, the direction that relaxes it, the search's resolution, and how far the
+    judge's demonstrations reach (beyond that the judge has seen nothing to stand on)."""
+
+    name: str
+    direction: int  # +1: raise the limit, -1: lower it
+    resolution: float
+    bound: float
+    unit: str
+
+
+RELAXATIONS = (
+    Relaxation("f_max", +1, 1.0, _DEMOS.force[1], "N"),
+    Relaxation("qdot_max", +1, 0.05, _DEMOS.max_speed, "m/s"),
+    Relaxation("f_min", -1, 1.0, _DEMOS.force[0], "N"),
+)
+
+
+@dataclass
+class Suggestion:
+    limit: str
+    value: float
+    current: float
+    unit: str
+    result: PlanResult  # the best method's plan under the relaxed limit
+    p_at_bound: float  # screened at the widest relaxation the demonstrations support
+    bound: float
+
+    @property
+    def relative_change(self) -> float:
+        return abs(self.value - self.current) / max(abs(self.current), 1e-9)
+
+    def text(self) -> str:
+        op = ">=" if self.value > self.current else "<="
+        r = self.result
+        return (f"likely with {self.limit} {op} {self.value:.3g} {self.unit} (now {self.current:g}): "
+                f"p = {r.success_probability:.2f} ({r.method}, {r.probability_source}'s probability); "
+                f"p = {self.p_at_bound:.2f} at {self.limit} = {self.bound:g} {self.unit}")
+
+    def to_json(self) -> dict:
+        r = self.result
+        return {"limit": self.limit, "value": self.value, "current": self.current, "unit": self.unit,
+                "success_probability": r.success_probability, "probability_source": r.probability_source,
+                "method": r.method, "predicted_success": r.predicted_success, "bound": self.bound,
+                "success_probability_at_bound": self.p_at_bound}
+
+
+def best(results: list[PlanResult]) -> PlanResult | None:
+    """The result with the highest success probability (None if no method made a plan)."""
+    judged = [r for r in results if r.success_probability is not None]
+    return max(judged, key=lambda r: r.success_probability) if judged else None
+
+
+def _screen(planners: Planners, name: str, value: float, env: dict[str, float], guess) -> float:
+    """Best success probability of the fastest planner that covers the relaxed limit."""
+    relaxed = planners.with_limits(**{name: value})
+    fastest = next(m for m in ("amortized", "direct", "cem") if m in relaxed.methods)
+    only = dataclasses.replace(relaxed, methods=(fastest,), direct=relaxed.direct if fastest == "direct" else None,
+                               cem=relaxed.cem if fastest == "cem" else None)
+    r = best(only.solve(env, guess=guess))
+    return -1.0 if r is None else r.success_probability
+
+
+def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult],
+            relaxations=RELAXATIONS) -> list[Suggestion]:
+    """One suggestion per limit whose relaxation (within the demonstrations' reach) makes a plan
+    likely, smallest relative change first. Empty: no single limit's relaxation helps.
+    `results`: the plans under the current limits; the best one warm-starts every direct solve
+    (it satisfies any relaxed limits too)."""
+    found: list[Suggestion] = []
+    p = planners.problem
+    start = best(results)
+    guess = start.plan if start is not None else None
+    for rx in relaxations:
+        current = getattr(p, rx.name)
+        if (rx.bound - current) * rx.direction <= rx.resolution:
+            continue  # already at what the demonstrations reach
+        try:
+            p_bound = _screen(planners, rx.name, rx.bound, env, guess)
+            if p_bound < LIKELY:
+                continue
+            lo, hi = current, rx.bound  # unlikely at lo, likely at hi
+            while abs(hi - lo) > rx.resolution:
+                mid = 0.5 * (lo + hi)
+                if _screen(planners, rx.name, mid, env, guess) >= LIKELY:
+                    hi = mid
+                else:
+                    lo = mid
+            relaxed = planners.with_limits(**{rx.name: hi}).solve(env, guess=None if "amortized" in
+                                                                  planners.methods else guess)
+        except ProblemError:  # the relaxed limits contradict another one
+            continue
+        top = best(relaxed)
+        if top is not None and top.success_probability >= LIKELY:
+            found.append(Suggestion(rx.name, float(hi), float(current), rx.unit, top, p_bound, rx.bound))
+    return sorted(found, key=lambda s: s.relative_change)
