@@ -21,6 +21,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
+    if args.table == "sweep":
+        return cmd_sweep(args)
     problem = load_problem(resolve(args.problem or ("problems/paper_sim_slow.toml" if args.table == "compare"
                                                     else "problems/paper_sim.toml")))
     rows = TABLES[args.table]()
@@ -50,6 +52,59 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    import csv
+    import io
+
+    from judgeopt.evaluate.report import _atomic_text
+    from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, markdown_sweep, parse_limit_set, plot_sweep,
+                                         summarise_sweep, sweep_rows)
+    from judgeopt.evaluate.tables import run_table
+    from judgeopt.planners.problem import load_problem
+    from judgeopt.planners.solve import resolve
+
+    problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
+    mu = _mu_range(args.mu or "1,3")
+    sets = [parse_limit_set(t) for t in (args.limits or DEFAULT_LIMIT_SETS)]
+    rows, notes = sweep_rows(problem, sets, mu, args.models)
+    out = Path(args.out or "out/evaluate/sweep")
+    results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
+                        chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    summary = summarise_sweep(sets, rows, results)
+    title = (f"Held-out limit sets ({args.n} environments each, y_obj in [0.10, 0.28], mu in [{mu[0]:g}, {mu[1]:g}], "
+             f"seed {args.seed}; judge {problem.judge})")
+    md = markdown_sweep(summary, title)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
+    w.writeheader()
+    w.writerows(summary)
+    _atomic_text(out / "sweep.md", md)
+    _atomic_text(out / "sweep.csv", buf.getvalue())
+    png = plot_sweep(summary, out / "sweep.png", title)
+    for note in notes:
+        print(f"note: {note}")
+    print(md)
+    print("command: judgeopt evaluate " + " ".join(_argv(args)))
+    for f in (out / "sweep.md", out / "sweep.csv", png):
+        print(f"wrote {f}")
+    return 0
+
+
+def _mu_range(text: str) -> tuple[float, float]:
+    from judgeopt.planners.problem import ProblemError
+    from judgeopt.sim.scene import ENV_RANGES
+
+    try:
+        lo, hi = (float(v) for v in text.split(","))
+    except ValueError:
+        raise ProblemError(f"--mu {text!r}: give LO,HI (two numbers)") from None
+    plo, phi = ENV_RANGES["mu"]
+    if not (plo <= lo <= hi <= phi):
+        raise ProblemError(f"--mu {text}: need {plo:g} <= LO <= HI <= {phi:g} (the scene's physical range, "
+                           "lower bound first)")
+    return lo, hi
+
+
 def _calibrators(problem, path: str | None) -> dict:
     """From --calibration, or the problem's file where it exists (none: no calibrated column)."""
     from judgeopt.planners.calibration import load_calibration
@@ -64,6 +119,7 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra = (["--problem", args.problem] if args.problem else []) + (["--methods", *args.methods] if args.methods else [])
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
         ["--judge-model", args.judge_model] if args.judge_model else [])
+    extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--mu", args.mu] if args.mu else [])
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
@@ -117,8 +173,12 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "seeded environments per row (rows with the same mu range share them). Parallel processes "
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
                        "interrupted run resumes.")
-    e.add_argument("table", choices=("table4", "table5", "compare"),
-                   help="table4, table5: the paper's tables; compare: amortised vs direct vs CEM sampling")
+    e.add_argument("table", choices=("table4", "table5", "compare", "sweep"),
+                   help="table4, table5: the paper's tables; compare: amortised vs direct vs CEM sampling; sweep: "
+                   "held-out limit sets, with the no-judge baseline and a feasibility search in simulation")
+    e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
+                   "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
+    e.add_argument("--mu", help="sweep: friction range LO,HI of the environments (default 1,3)")
     e.add_argument("--n", type=int, default=100, help="environments per row")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--problem", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "

@@ -155,4 +155,23 @@ def _with_path(path: Path, problem: Problem, row: Row, envs: np.ndarray, first: 
                models_dir: str) -> tuple[Path, list[dict]]:
     if row.overrides:
         problem = problem.with_overrides(**dict(row.overrides))
+    if row.method in SIMULATOR_ROWS:
+        return path, _simulator_rows(problem, row.method, envs, first, seed)
     return path, _run(problem, (row.method,), models_dir, envs, True, row.judge, first, seed)
+
+
+#: rows that need no judge: random constraint-satisfying plans, and a search scored by the simulator
+SIMULATOR_ROWS = {"nojudge": 8, "search": None}  # nojudge: random plans per environment
+
+
+def _simulator_rows(problem: Problem, method: str, envs: np.ndarray, first: int, seed: int) -> list[dict]:
+    from judgeopt.evaluate.feasibility import nojudge_rows, search
+    from judgeopt.planners.batch import _simulator
+
+    rows = []
+    for i, e in enumerate(envs):
+        env = dict(zip(problem.env_names, map(float, e)))
+        found = (nojudge_rows(problem, env, _simulator(), SIMULATOR_ROWS["nojudge"], seed) if method == "nojudge"
+                 else [search(problem, env, _simulator(), seed)])
+        rows += [{**r, "env_index": first + i} for r in found]
+    return rows

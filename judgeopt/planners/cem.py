@@ -41,14 +41,14 @@ class CEMConfig:
     seed: int = 0
 
 
-class CEMPlanner:
-    """Cross-entropy search over spline commands, scored by the judge's logit."""
+class SplineCommands:
+    """Plans from 2K numbers in [0, 1]: K velocity knots and K force knots mapped onto the
+    limits (the module docstring). Shared by the CEM baseline, the no-judge baseline and the
+    feasibility search in simulation, so all three search the same space of plans."""
 
-    method = "cem"
-
-    def __init__(self, problem: Problem, judge: Judge, config: CEMConfig | None = None):
-        self.problem, self.judge, self.config = problem, judge, config or CEMConfig()
-        n, k = problem.steps, self.config.knots
+    def __init__(self, problem: Problem, knots: int):
+        self.problem, self.knots = problem, knots
+        n, k = problem.steps, knots
         s = np.linspace(0.0, 1.0, n + 1)
         # linear interpolation from [rest, knots..., rest] onto the samples, as a matrix
         nodes = np.linspace(0.0, 1.0, k + 2)
@@ -57,9 +57,14 @@ class CEMPlanner:
         self._force_nodes = np.linspace(0.0, 1.0, k)
         self._s = s
 
-    def _plans(self, z: np.ndarray, q_end: float) -> tuple[np.ndarray, np.ndarray]:
-        """(B, 2K) knots in [0, 1] -> (B, N + 1, 3) plans [q, q̇, f] and each one's penalty."""
-        pr, k, dt = self.problem, self.config.knots, self.problem.dt
+    @property
+    def dim(self) -> int:
+        return 2 * self.knots
+
+    def decode(self, z: np.ndarray, q_end: float) -> tuple[np.ndarray, np.ndarray]:
+        """(B, 2K) knots in [0, 1] -> (B, N + 1, 3) plans [q, q̇, f] and each one's penalty
+        (terminal position error plus position-limit violation, in m)."""
+        pr, k, dt = self.problem, self.knots, self.problem.dt
         vk = pr.qdot_min + z[:, :k] * (pr.qdot_max - pr.qdot_min)
         ends = np.column_stack([np.full(len(z), pr.qdot0), vk, np.full(len(z), pr.qdot_end)])
         v = ends @ self._vel_basis.T
@@ -78,6 +83,16 @@ class CEMPlanner:
                    + np.maximum(pr.q_min - q, 0).max(1))
         return np.stack([q, v, f], axis=2), penalty
 
+
+class CEMPlanner:
+    """Cross-entropy search over spline commands, scored by the judge's logit."""
+
+    method = "cem"
+
+    def __init__(self, problem: Problem, judge: Judge, config: CEMConfig | None = None):
+        self.problem, self.judge, self.config = problem, judge, config or CEMConfig()
+        self.commands = SplineCommands(problem, self.config.knots)
+
     def solve(self, env: dict[str, float]) -> PlanResult:
         from judgeopt.planners.direct import judge_env
 
@@ -91,21 +106,21 @@ class CEMPlanner:
         rng = np.random.default_rng([cfg.seed, key])
         q_end = pr.terminal_position(env)
         e = np.repeat(judge_env(self.judge, env)[None], cfg.population, axis=0)
-        dim = 2 * cfg.knots
+        dim = self.commands.dim
         mean, std = np.full(dim, 0.5), np.full(dim, cfg.init_std)
         n_elite = max(2, int(round(cfg.elite * cfg.population)))
         best_z, best_score = mean[None], -np.inf
         for _ in range(cfg.iterations):
             z = np.clip(mean + std * rng.standard_normal((cfg.population, dim)), 0.0, 1.0)
             z[0] = np.clip(mean, 0.0, 1.0)  # the current mean is always a candidate
-            x, penalty = self._plans(z, q_end)
+            x, penalty = self.commands.decode(z, q_end)
             score = self.judge.predict_logit(x, e) - cfg.penalty * penalty
             order = np.argsort(-score)
             if score[order[0]] > best_score:
                 best_score, best_z = float(score[order[0]]), z[order[:1]]
             elite = z[order[:n_elite]]
             mean, std = elite.mean(0), np.maximum(elite.std(0), cfg.min_std)
-        x, _ = self._plans(best_z, q_end)
+        x, _ = self.commands.decode(best_z, q_end)
         plan = Plan.from_array(pr.dt, x[0])
         elapsed = time.perf_counter() - t0
         prob = float(self.judge.predict_proba(x, e[:1])[0])

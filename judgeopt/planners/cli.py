@@ -213,7 +213,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
 
     from judgeopt.cli import _command_line
     from judgeopt.judge.store import check_compatible, load_judge
-    from judgeopt.planners.generator import CONDITION_NAMES, AmortizedPlanner, LimitRanges
+    from judgeopt.planners.generator import CONDITION_NAMES, AmortizedPlanner
     from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
     from judgeopt.planners.solve import resolve
     from judgeopt.planners.store import save_generator
@@ -222,7 +222,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     ranges = None
     given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
     if args.conditioned:
-        ranges = LimitRanges(**given)
+        ranges = limit_ranges_from_args(args)
         ranges.check(problem)
     elif given:
         raise ProblemError(f"--{next(iter(given)).replace('_', '-')}-range needs --conditioned")
@@ -344,10 +344,29 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                              "limits are extra inputs, drawn per training trajectory (uniform)")
     c.add_argument("--conditioned", action="store_true",
                    help="condition on the limits (the problem's other limits stay fixed)")
-    for name, default in (("qdot_max", "0.25,1.0"), ("f_min", "5,10"), ("f_max", "15,25")):
-        c.add_argument(f"--{name.replace('_', '-')}-range", dest=f"{name}_range", type=_range, metavar="LO,HI",
-                       help=f"range of {name} (default {default})")
+    add_limit_range_arguments(c)
     t.set_defaults(func=cmd_train_generator)
+
+
+def add_limit_range_arguments(group, defaults=None) -> None:
+    """--qdot-max-range, --f-min-range, --f-max-range LO,HI (default: `defaults`, a LimitRanges)."""
+    from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
+
+    defaults = defaults or LimitRanges()
+    for name in CONDITION_NAMES:
+        lo, hi = getattr(defaults, name)
+        group.add_argument(f"--{name.replace('_', '-')}-range", dest=f"{name}_range", type=_range, metavar="LO,HI",
+                           help=f"range of {name} (default {lo:g},{hi:g})")
+
+
+def limit_ranges_from_args(args: argparse.Namespace, defaults=None):
+    """The LimitRanges the --*-range options give (the rest from `defaults`)."""
+    import dataclasses
+
+    from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
+
+    given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
+    return dataclasses.replace(defaults or LimitRanges(), **given)
 
 
 def _range(text: str) -> tuple[float, float]:

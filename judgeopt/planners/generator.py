@@ -27,6 +27,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from judgeopt.data.commands import RandomCommandConfig
 from judgeopt.planners.problem import Problem, ProblemError
 from judgeopt.planners.result import PlanResult, constraint_residuals
 from judgeopt.trajectory import Plan
@@ -68,6 +69,12 @@ class LimitRanges:
         if not self.f_min[1] < self.f_max[0]:
             raise ProblemError(f"f_min range {list(self.f_min)} must lie below the f_max range {list(self.f_max)} "
                                "(every sampled f_min < f_max)")
+        demos = RandomCommandConfig()
+        for name, (lo, hi) in (("qdot_max", (0.0, demos.max_speed)), ("f_min", demos.force), ("f_max", demos.force)):
+            v = getattr(self, name)
+            if v[0] < lo or v[1] > hi or (name == "qdot_max" and v[0] <= lo):
+                raise ProblemError(f"{name} range {list(v)} leaves [{lo:g}, {hi:g}], what the demonstrations cover "
+                                   "(the judge has seen nothing beyond it); narrow the range")
 
     def to_dict(self) -> dict[str, list[float]]:
         return {k: list(getattr(self, k)) for k in CONDITION_NAMES}

@@ -87,6 +87,11 @@ def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | No
         p.requires_grad_(False)
     # `init`: fine-tune a copy of that generator (e.g. against a refined judge) instead of starting afresh
     gen = copy.deepcopy(init).train() if init is not None else Generator(problem, config, conditioned)
+    if init is not None and conditioned is not None and init.conditioned != conditioned:
+        # fine-tune over other limit ranges: same network, the new ranges' input scaling
+        wider = Generator(init.problem, init.config, conditioned)
+        wider.net.load_state_dict(init.net.state_dict())
+        gen = wider.train()
     opt = torch.optim.Adam(gen.parameters(), lr=tc.lr)
     sched = torch.optim.lr_scheduler.LambdaLR(
         opt, lambda k: tc.lr_final + (1 - tc.lr_final) * 0.5 * (1 + np.cos(np.pi * min(k, tc.epochs) / tc.epochs)))

@@ -10,14 +10,17 @@ from pathlib import Path
 
 def cmd_refine(args: argparse.Namespace) -> int:
     from judgeopt.judge.store import _atomic_write
-    from judgeopt.planners.cli import problem_from_args
+    from judgeopt.planners.cli import limit_ranges_from_args, problem_from_args
     from judgeopt.planners.solve import resolve
-    from judgeopt.refine.loop import RefineConfig, install, refine
+    from judgeopt.refine.loop import WIDE_LIMITS, RefineConfig, install, refine
 
     problem = problem_from_args(args)
+    ranges = limit_ranges_from_args(args, WIDE_LIMITS) if args.sample_limits else None
+    if ranges is not None:
+        ranges.check(problem)
     cfg = RefineConfig(rounds=args.rounds, n=args.n, methods=tuple(args.methods), seed=args.seed,
                        judge_epochs=args.judge_epochs, weight=args.weight, generator_epochs=args.generator_epochs,
-                       chunk=args.chunk)
+                       chunk=args.chunk, limit_ranges=ranges)
     out = Path(args.out)
     generator = resolve(args.generator, (".json",)) if args.generator else None
     figures = refine(problem, resolve(args.train), resolve(args.judge_model or problem.judge, (".json",)), generator,
@@ -74,7 +77,8 @@ def plot(figures: list[dict], path: Path) -> Path:
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:
-    from judgeopt.planners.cli import add_problem_arguments
+    from judgeopt.planners.cli import add_limit_range_arguments, add_problem_arguments
+    from judgeopt.refine.loop import WIDE_LIMITS
 
     r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",
                        description="Each round plans for --n fresh environments with the current judge, replays "
@@ -100,4 +104,9 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--install", metavar="NAME", help="copy round --rounds' models to models/judge_NAME (and "
                    "generator_NAME)")
     r.add_argument("--quiet", action="store_true")
+    g = r.add_argument_group("limit sampling", "plan each environment under its own q̇_max, f_min, f_max drawn "
+                             "from ranges (uniform), so the judge learns which limits make the task impossible; "
+                             "the generator (with --generator-epochs) becomes a conditioned one over these ranges")
+    g.add_argument("--sample-limits", action="store_true", help="sample the limits per environment")
+    add_limit_range_arguments(g, WIDE_LIMITS)
     r.set_defaults(func=cmd_refine)

@@ -30,7 +30,13 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from judgeopt.judge.store import _atomic_write
+from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
+
+
+#: refinement's default limit ranges: wider than any shipped problem, down to forces and speeds
+#: under which no scoop succeeds at high friction (q̇_max from what reaches y_obj = 0.28 m)
+WIDE_LIMITS = LimitRanges(qdot_max=(0.22, 1.2), f_min=(0.0, 10.0), f_max=(11.0, 30.0))
 
 
 @dataclass(frozen=True)
@@ -44,20 +50,27 @@ class RefineConfig:
     weight: int = 3  # copies of the planners' outcomes in the training set: they are few, and they matter
     generator_epochs: int = 0  # > 0: fine-tune the generator against each new judge
     chunk: int = 5
+    # sample q̇_max, f_min, f_max per environment from these ranges (None: the problem's own
+    # limits), so the judge sees outcomes of plans made under many limits, failures included;
+    # the generator is then fine-tuned as a conditioned one over the same ranges
+    limit_ranges: LimitRanges | None = None
 
     def __post_init__(self) -> None:
         from judgeopt.planners.problem import ProblemError
 
         if self.rounds < 1 or self.n < 1 or self.judge_epochs < 1 or self.weight < 1 or self.chunk < 1:
             raise ProblemError(f"rounds, n, judge_epochs, weight and chunk must be at least 1: {self}")
+        if self.limit_ranges is not None and not isinstance(self.limit_ranges, LimitRanges):
+            object.__setattr__(self, "limit_ranges", LimitRanges.from_dict(self.limit_ranges))
         if "amortized" in self.methods and self.generator_epochs < 1:
             raise ProblemError("planning with the amortised generator in refinement needs generator_epochs > 0 "
                                "(a generator is only as good as the judge it was trained against)")
 
 
 def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None,
-                envs: np.ndarray, first: int) -> list[dict[str, Any]]:
-    """Plan, replay, and keep what the dataset needs: the command, the measured response, the label."""
+                envs: np.ndarray, first: int, limits: np.ndarray | None = None) -> list[dict[str, Any]]:
+    """Plan, replay, and keep what the dataset needs: the command, the measured response, the
+    label; `limits`: (n, 3) q̇_max, f_min, f_max per environment (None: the problem's)."""
     import torch
 
     from judgeopt.planners.batch import _WORKERS, _simulator
@@ -71,12 +84,13 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
-        for r in planners.solve(env):
-            if r.plan is None:
+        lim = {} if limits is None else dict(zip(CONDITION_NAMES, map(float, limits[i])))
+        for r in (planners.with_limits(**lim) if lim else planners).solve(env):
+            if r.plan is None:  # limits infeasible for this environment: nothing to replay
                 continue
             out = sim.run(r.plan, env["y_obj"], env["mu"])
             rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
-                         "command": r.plan.as_array().tolist(), "response": out.as_array().tolist(),
+                         "limits": lim, "command": r.plan.as_array().tolist(), "response": out.as_array().tolist(),
                          "success": bool(out.success), "predicted": r.predicted_success,
                          "violation": r.max_constraint_violation})
     return rows
@@ -90,11 +104,20 @@ def _round_envs(problem: Problem, seed: int, k: int, n: int) -> np.ndarray:
     return problem.sample_env(np.random.default_rng([seed, 7919, k]), n)
 
 
+def _round_limits(cfg: RefineConfig, k: int) -> np.ndarray | None:
+    """Round k's limits per environment (their own stream: the environments stay those of a
+    refinement without limit sampling)."""
+    if cfg.limit_ranges is None:
+        return None
+    return cfg.limit_ranges.sample(np.random.default_rng([cfg.seed, 7927, k]), cfg.n)
+
+
 def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generator: str | None, folder: Path,
                 n_jobs: int, scheduler: str | None, progress: bool) -> list[dict]:
     from judgeopt.data.collect import _backend
 
     envs = _round_envs(problem, cfg.seed, k, cfg.n)
+    limits = _round_limits(cfg, k)
     partial = folder / "partial"
     done, todo = [], []
     for first in range(0, cfg.n, cfg.chunk):
@@ -104,7 +127,8 @@ def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generat
         else:
             todo.append((path, first))
     if todo:
-        jobs = (delayed(_numbered)(path, problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f)
+        jobs = (delayed(_numbered)(path, problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
+                                   None if limits is None else limits[f:f + cfg.chunk])
                 for path, f in todo)
         with _backend(scheduler, n_jobs):
             it = Parallel(return_as="generator_unordered")(jobs)
@@ -205,7 +229,7 @@ def _fine_tune_generator(problem: Problem, judge: str, generator: str | None, ou
     jmodel, jmeta = load_judge(judge)
     init = load_generator(generator)[0] if generator else None
     tc = GeneratorTrainConfig(epochs=cfg.generator_epochs, seed=cfg.seed + k, progress=progress)
-    gen, _ = train_generator(problem, jmodel, tc=tc, init=init)
+    gen, _ = train_generator(problem, jmodel, tc=tc, init=init, conditioned=cfg.limit_ranges)
     save_generator(gen, out, {"source": f"judgeopt refine round {k}", "fine_tuned_from": generator,
                               "train_config": train_config_dict(tc), "problem": problem.to_dict(),
                               "judge": {"path": judge, "weights_sha256": jmeta["weights_sha256"]}})

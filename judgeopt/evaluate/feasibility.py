@@ -1,0 +1,104 @@
+"""What is possible under a limit set, asked of the simulator itself, and the no-judge baseline.
+
+Both search the CEM baseline's space of plans (`SplineCommands`): velocity knots mapped onto
+[q̇_min, q̇_max], forces a monotone spline inside [f_min, f_max], a half-sine correction so the
+plan ends at q_end. So every plan they try satisfies the limits by construction.
+
+- No-judge baseline: random plans from that space, replayed. Its success rate is what the
+  limits alone give; a judge's worth is its distance from this rate.
+- Feasibility search: a cross-entropy search whose score is the rollout's own outcome (success
+  first, then how far the object rose and how close to the blade centre it ended). It stops at
+  the first success. A search can miss a feasible plan, so its negative answer is "no
+  successful plan found in N tries", never "impossible".
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from judgeopt.planners.cem import SplineCommands
+from judgeopt.planners.problem import InfeasibleProblemError, Problem
+from judgeopt.trajectory import Plan
+
+TERMINAL_TOL = 1e-3  # m: a random plan that misses q_end by more does not satisfy the constraints
+
+
+@dataclass(frozen=True)
+class SearchConfig:
+    knots: int = 6
+    population: int = 12
+    iterations: int = 8  # at most population x iterations rollouts per environment
+    elite: int = 3
+    init_std: float = 0.3
+    min_std: float = 0.05
+
+
+def env_rng(problem: Problem, env: dict[str, float], seed: int, stream: int) -> np.random.Generator:
+    """Seeded by the environment's values, so a result does not depend on which ran before."""
+    key = zlib.crc32(np.asarray([env[n] for n in problem.env_names], dtype=np.float64).tobytes())
+    return np.random.default_rng([seed, stream, key])
+
+
+def _score(out, rollout_cfg) -> float:
+    """Success dominates; below it, rising with the blade and ending near its centre."""
+    rise = min(max(out.object_rise, 0.0) / rollout_cfg.success_rise, 1.0)
+    offset = min(out.info["offset_from_blade"] / rollout_cfg.max_overhang, 3.0)
+    return 10.0 * float(out.success) + rise - 0.3 * offset
+
+
+def random_plans(problem: Problem, env: dict[str, float], n: int, seed: int, knots: int = 6) -> list[Plan]:
+    """n random plans that satisfy the limits and end at q_end (fewer if some cannot)."""
+    commands = SplineCommands(problem, knots)
+    rng = env_rng(problem, env, seed, 101)
+    x, penalty = commands.decode(rng.uniform(0.0, 1.0, (n, commands.dim)), problem.terminal_position(env))
+    return [Plan.from_array(problem.dt, xi) for xi, pi in zip(x, penalty) if pi <= TERMINAL_TOL]
+
+
+def nojudge_rows(problem: Problem, env: dict[str, float], sim, n: int, seed: int) -> list[dict]:
+    """One row per random constraint-satisfying plan, replayed."""
+    try:
+        problem.check_feasible(env)
+    except InfeasibleProblemError as exc:
+        return [{"method": "nojudge", "environment": env, "status": "infeasible", "message": str(exc),
+                 "simulated_success": None}]
+    rows = []
+    for i, plan in enumerate(random_plans(problem, env, n, seed)):
+        out = sim.run(plan, env["y_obj"], env["mu"])
+        rows.append({"method": "nojudge", "environment": env, "status": "sampled", "try": i,
+                     "simulated_success": bool(out.success), "predicted_success": None,
+                     "max_constraint_violation": 0.0, "solve_time_s": 0.0})
+    return rows
+
+
+def search(problem: Problem, env: dict[str, float], sim, seed: int, cfg: SearchConfig = SearchConfig()) -> dict:
+    """A sim-scored cross-entropy search for one successful plan; stops at the first."""
+    try:
+        problem.check_feasible(env)
+    except InfeasibleProblemError as exc:
+        return {"method": "search", "environment": env, "status": "infeasible", "message": str(exc),
+                "simulated_success": None, "tries": 0}
+    commands = SplineCommands(problem, cfg.knots)
+    rng = env_rng(problem, env, seed, 202)
+    q_end = problem.terminal_position(env)
+    mean, std = np.full(commands.dim, 0.5), np.full(commands.dim, cfg.init_std)
+    tries, best = 0, -np.inf
+    for _ in range(cfg.iterations):
+        z = np.clip(mean + std * rng.standard_normal((cfg.population, commands.dim)), 0.0, 1.0)
+        x, penalty = commands.decode(z, q_end)
+        scores = np.full(len(z), -np.inf)
+        for j in np.flatnonzero(penalty <= TERMINAL_TOL):
+            out = sim.run(Plan.from_array(problem.dt, x[j]), env["y_obj"], env["mu"])
+            tries += 1
+            scores[j] = _score(out, sim.rollout_config)
+            if out.success:
+                return {"method": "search", "environment": env, "status": "found", "simulated_success": True,
+                        "tries": tries, "plan": x[j].tolist(), "config": asdict(cfg)}
+        best = max(best, float(scores.max()))
+        elite = z[np.argsort(-scores)[:cfg.elite]]
+        mean, std = elite.mean(0), np.maximum(elite.std(0), cfg.min_std)
+    return {"method": "search", "environment": env, "status": "not_found", "simulated_success": False,
+            "tries": tries, "best_score": best, "config": asdict(cfg),
+            "message": f"no successful plan found in {tries} tries"}

@@ -1,0 +1,193 @@
+"""`judgeopt evaluate sweep`: held-out limit sets, where a scoop is possible and where it is not.
+
+For every limit set and seeded environment (the same environments for every set): the two
+planners and the CEM baseline (each plan replayed, with its success probability and verdict),
+the no-judge baseline (random plans that satisfy the limits) and a feasibility search scored by
+the simulator itself. An environment counts as feasible when any of them succeeded; where none
+did, the honest statement is "no successful plan found in N tries". Per limit set this gives
+what a user needs to trust a verdict: success where success was found possible, the verdict
+where it was not, and whether the probabilities match the outcomes.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from judgeopt.evaluate.tables import Row
+from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
+
+PLANNERS = ("amortized", "direct", "cem")
+#: the default held-out limit sets: none is a shipped problem's, one (q̇_max 0.6 with f_max 18 N)
+#: leaves some high-friction scoops without any successful plan
+DEFAULT_LIMIT_SETS = ("qdot_max=0.6,f_max=18", "qdot_max=0.3,f_min=5,f_max=25", "qdot_max=0.8,f_min=10,f_max=30",
+                      "f_min=7.5,f_max=14", "qdot_max=0.5,f_min=3,f_max=12", "qdot_max=0.9,f_min=6,f_max=16")
+
+
+@dataclass(frozen=True)
+class LimitSet:
+    label: str
+    overrides: tuple[tuple[str, float], ...]
+
+
+def parse_limit_set(text: str) -> LimitSet:
+    """`qdot_max=0.6,f_max=18` (limit fields), or a problem file whose limits are taken whole."""
+    names = SECTIONS["limits"]
+    if text.endswith(".toml"):
+        from judgeopt.planners.solve import resolve
+
+        p = load_problem(resolve(text))
+        return LimitSet(Path(text).stem, tuple((k, float(getattr(p, k))) for k in names))
+    pairs = []
+    for item in filter(None, (t.strip() for t in text.split(","))):
+        name, _, value = item.partition("=")
+        name = name.strip().replace("-", "_")
+        if name not in names:
+            raise ProblemError(f"limit set {text!r}: {name!r} is not a limit; use {', '.join(names)} "
+                               "(e.g. qdot_max=0.6,f_max=18) or a problem .toml file")
+        try:
+            pairs.append((name, float(value)))
+        except ValueError:
+            raise ProblemError(f"limit set {text!r}: {value!r} is not a number for {name}") from None
+    if not pairs:
+        raise ProblemError(f"limit set {text!r} names no limit (e.g. qdot_max=0.6,f_max=18)")
+    return LimitSet(", ".join(f"{k} {v:g}" for k, v in pairs), tuple(pairs))
+
+
+def sweep_rows(problem: Problem, sets: list[LimitSet], mu: tuple[float, float],
+               models_dir: str = "models") -> tuple[list[Row], list[str]]:
+    """Rows for run_table (planners, no-judge, search per set) and notes on what was left out.
+    A limit set that contradicts the problem's other fields is an error naming the set; one
+    whose limits make some environments unreachable is run (those are reported infeasible)."""
+    from judgeopt.planners.solve import choose_models
+
+    rows, notes = [], []
+    for ls in sets:
+        try:
+            p = problem.with_overrides(**dict(ls.overrides))
+        except ProblemError as exc:
+            raise ProblemError(f"limit set '{ls.label}': {exc}") from None
+        for m in PLANNERS:
+            if m == "amortized" and choose_models(p, (m,), None, None, models_dir).generator is None:
+                notes.append(f"{ls.label}: no generator in {models_dir}/ covers these limits, so no amortised row")
+                continue
+            rows.append(Row(ls.label, m, None, mu, overrides=ls.overrides))
+        rows += [Row(ls.label, m, None, mu, overrides=ls.overrides) for m in ("nojudge", "search")]
+    return rows, notes
+
+
+def _by_env(rs: list[dict]) -> dict[int, list[dict]]:
+    out: dict[int, list[dict]] = {}
+    for r in rs:
+        out.setdefault(r["env_index"], []).append(r)
+    return out
+
+
+def _mean(values) -> float | None:
+    values = [float(v) for v in values]
+    return float(np.mean(values)) if values else None
+
+
+def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
+    """One line per (limit set, planner), with the set's feasibility figures repeated."""
+    out = []
+    for ls in sets:
+        mine = {r.method: _by_env(results[r.key]) for r in rows if r.name == ls.label}
+        envs = sorted({e for per in mine.values() for e in per})
+        infeasible = {e for e in envs if any(r["status"] == "infeasible" for per in mine.values()
+                                             for r in per.get(e, []))}
+        found = {e for e in envs if any(r.get("simulated_success") for per in mine.values() for r in per.get(e, []))}
+        none_found = [e for e in envs if e not in found and e not in infeasible]
+        tries = [r["tries"] for e in none_found for r in mine.get("search", {}).get(e, [])]
+        nojudge = [r["simulated_success"] for per in mine.get("nojudge", {}).values() for r in per
+                   if r.get("simulated_success") is not None]
+        base = {"limit_set": ls.label, "environments": len(envs), "infeasible_before_solving": len(infeasible),
+                "feasible_found": len(found), "none_found": len(none_found),
+                "search_tries_where_none_found": int(min(tries)) if tries else None,
+                "nojudge_success_pct": 100 * _mean(nojudge) if nojudge else None}
+        for m in PLANNERS:
+            if m not in mine:
+                out.append({**base, "method": m, "planned": 0})
+                continue
+            res = {e: rs[0] for e, rs in mine[m].items() if rs[0].get("success_probability") is not None}
+            feas = [res[e]["simulated_success"] for e in found if e in res]
+            none = [res[e] for e in none_found if e in res]
+            p = [r["success_probability"] for r in res.values()]
+            sim = [r["simulated_success"] for r in res.values()]
+            out.append({**base, "method": m, "planned": len(res),
+                        "success_where_feasible": int(sum(feas)), "feasible_planned": len(feas),
+                        "success_where_feasible_pct": 100 * _mean(feas) if feas else None,
+                        "simulated_pct": 100 * _mean(sim) if sim else None,
+                        "success_probability_mean": _mean(p),
+                        "gap_pct": 100 * (_mean(p) - _mean(sim)) if p else None,
+                        "p_where_none_found": _mean(r["success_probability"] for r in none),
+                        "unlikely_where_none_found_pct": 100 * _mean(r["verdict"] == "unlikely" for r in none)
+                        if none else None,
+                        "verdict_accuracy_pct": 100 * _mean((r["verdict"] == "likely") == r["simulated_success"]
+                                                            for r in res.values()) if res else None,
+                        "calibrated_share": _mean(r["probability_source"] == "calibrated" for r in res.values())})
+    return out
+
+
+def _f(v, fmt: str, suffix: str = "") -> str:
+    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:{fmt}}{suffix}"
+
+
+def markdown_sweep(summary: list[dict], title: str) -> str:
+    lines = [f"### {title}", "",
+             "| limit set | feasible found | no success found (search tries) | no-judge | planner "
+             "| success where feasible | mean p | p - simulated | p where none found | 'unlikely' where none found "
+             "| verdict accuracy | p calibrated |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for s in summary:
+        infeasible = f", {s['infeasible_before_solving']} infeasible before solving" if s["infeasible_before_solving"] else ""
+        tries = f" ({s['search_tries_where_none_found']}+ tries)" if s["search_tries_where_none_found"] else ""
+        head = (f"| {s['limit_set']} | {s['feasible_found']}/{s['environments']}{infeasible} | {s['none_found']}{tries} "
+                f"| {_f(s['nojudge_success_pct'], '.0f', ' %')} | {s['method']} ")
+        if not s["planned"]:
+            lines.append(head + "| no generator for these limits | | | | | | |")
+            continue
+        lines.append(head + f"| {s['success_where_feasible']}/{s['feasible_planned']} "
+                     f"({_f(s['success_where_feasible_pct'], '.0f', ' %')}) | {_f(s['success_probability_mean'], '.3f')} "
+                     f"| {_f(s['gap_pct'], '+.0f', ' pts')} | {_f(s['p_where_none_found'], '.3f')} "
+                     f"| {_f(s['unlikely_where_none_found_pct'], '.0f', ' %')} | {_f(s['verdict_accuracy_pct'], '.0f', ' %')} "
+                     f"| {_f(s['calibrated_share'], '.0%')} |")
+    lines += ["", "Feasible found: environments where any planner, a random constraint-satisfying plan or the "
+              "simulator-scored search succeeded. Where none did, the search found no successful plan in the tries "
+              "shown: that is not a proof that none exists. p: the success probability the tool reports (calibrated "
+              "where a calibration covers the setting, else the judge's); verdict accuracy: 'likely' matched success "
+              "and 'unlikely' failure in simulation."]
+    return "\n".join(lines) + "\n"
+
+
+def plot_sweep(summary: list[dict], path: Path, title: str) -> Path:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from judgeopt.evaluate.report import _save
+
+    sets = list(dict.fromkeys(s["limit_set"] for s in summary))
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+    width = 0.8 / (len(PLANNERS) + 1)
+    x = np.arange(len(sets))
+    for j, m in enumerate(PLANNERS):
+        ss = [next((s for s in summary if s["limit_set"] == ls and s["method"] == m), {}) for ls in sets]
+        axes[0].bar(x + j * width, [s.get("success_where_feasible_pct") or 0 for s in ss], width, label=m)
+        axes[1].bar(x + j * width, [s.get("unlikely_where_none_found_pct") or 0 for s in ss], width, label=m)
+    first = [next(s for s in summary if s["limit_set"] == ls) for ls in sets]
+    axes[0].bar(x + len(PLANNERS) * width, [s["nojudge_success_pct"] or 0 for s in first], width, label="no judge",
+                color="0.6")
+    axes[0].set_ylabel("success where a successful plan was found [%]")
+    axes[1].set_ylabel("verdict 'unlikely' where none was found [%]")
+    for ax in axes:
+        ax.set_xticks(x + width * len(PLANNERS) / 2, sets, rotation=20, ha="right", fontsize=7)
+        ax.set_ylim(0, 105)
+        ax.legend(fontsize=7)
+    fig.suptitle(title, fontsize=9)
+    fig.tight_layout()
+    return _save(fig, path)
