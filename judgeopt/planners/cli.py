@@ -199,7 +199,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
     conflict = getattr(exc, "conflict", [])
     if args.json:
-        print(json.dumps({"status": "infeasible", "message": str(exc), "conflict": conflict, "environment": env,
+        print(json.dumps({"status": "infeasible", "verdict": "infeasible", "message": str(exc), "conflict": conflict,
+                          "environment": env,
                           "problem": problem.to_dict(), "results": []}))
     else:
         print(f"judgeopt solve: infeasible: {exc}", file=sys.stderr)

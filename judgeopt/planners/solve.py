@@ -93,6 +93,9 @@ class Planners:
     chosen: ChosenModels | None = None
     generator_meta: dict | None = None
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
+    models_dir: str | Path = "models"
+    generator_given: str | Path | None = None  # a generator named by the user is never swapped
+    loaded: dict = field(default_factory=dict)  # generator path -> (Generator, meta), shared by with_limits copies
 
     @classmethod
     def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
@@ -110,11 +113,11 @@ class Planners:
         chosen = choose_models(problem, methods, judge, generator, models_dir)
         jmodel, jmeta = load_judge(chosen.judge)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
-        out = cls(problem, jmodel, jmeta, judge_path=chosen.judge)
+        out = cls(problem, jmodel, jmeta, judge_path=chosen.judge, models_dir=models_dir, generator_given=generator)
         if "amortized" in methods or "direct" in methods:
             gpath = chosen.generator
             if gpath is not None:
-                gen, gmeta = load_generator(gpath)
+                gen, gmeta = out.loaded[gpath] = load_generator(gpath)
                 if not matches(gmeta, problem):
                     out.notes.append(f"generator {gpath} was trained for other limits; its plan may violate these "
                                      "(reported below)")
@@ -180,29 +183,33 @@ class Planners:
         self.calibrators = {s: self.calibration_file[s] for s in self.settings.values() if s in self.calibration_file}
 
     def with_limits(self, **limits: float) -> "Planners":
-        """The same models under other position, velocity or force limits, without reloading or
-        rebuilding anything: the direct solver swaps its bounds, a conditioned generator takes the
-        limits as inputs (a generator that does not cover them only warm-starts the direct
-        solve), and each method's setting (and so its calibration) is looked up anew."""
-        from judgeopt.planners.store import matches
+        """The same judge under other position, velocity or force limits, without rebuilding the
+        direct solver (it swaps its bounds). The generator is chosen as `load` chooses it (the
+        one given, else one in models_dir that covers the new limits; each loaded once); where
+        none covers them, the amortised method drops out and the old generator's plan only
+        warm-starts the direct solve. Each method's setting, and so its calibration, is new."""
+        from judgeopt.planners.store import load_generator
 
         problem = self.problem.with_overrides(**limits)
+        chosen = choose_models(problem, self.methods, self.judge_path, self.generator_given, self.models_dir)
         out = dataclasses.replace(self, problem=problem, notes=list(self.notes), settings={}, descriptions={},
                                   calibrators={})
-        if self.amortized is not None:
-            covered = self.generator_meta is not None and matches(self.generator_meta, problem)
-            out.amortized = AmortizedPlanner(self.amortized.generator, problem if covered else self.problem,
-                                             self.judge)
-            if not covered and "amortized" in self.methods:
-                out.methods = tuple(m for m in self.methods if m != "amortized")
-                if not out.methods:
-                    raise ProblemError(f"the generator {self.generator_path} was not trained for {limits}; "
-                                       "plan with --method direct or both")
+        gpath = chosen.generator
+        if gpath is not None:
+            if gpath not in self.loaded:
+                self.loaded[gpath] = load_generator(gpath)
+            gen, out.generator_meta = self.loaded[gpath]
+            out.generator_path, out.amortized = Path(gpath), AmortizedPlanner(gen, problem, self.judge)
+        elif "amortized" in self.methods or self.amortized is not None:
+            out.methods = tuple(m for m in self.methods if m != "amortized")
+            if not out.methods:
+                raise ProblemError(f"no generator in {self.models_dir}/ covers {limits}; plan with --method direct")
+            out.generator_path = None
         if self.direct is not None:
             out.direct = self.direct.with_limits(problem)
         if self.cem is not None:
             out.cem = CEMPlanner(problem, self.judge, self.cem.config)
-        out._settings(dataclasses.replace(self.chosen, problem=problem))
+        out._settings(chosen)
         return out
 
     def solve(self, env: dict[str, float], simulator=None, guess=None) -> list[PlanResult]:
