@@ -49,12 +49,27 @@ def _score(out, rollout_cfg) -> float:
     return 10.0 * float(out.success) + rise - 0.3 * offset
 
 
+def _valid(commands: SplineCommands, q_end: float, n: int, draw) -> tuple[np.ndarray, np.ndarray]:
+    """n knot vectors from draw(n) whose plans end within TERMINAL_TOL of q_end (clipping to the
+    velocity limits can spoil a draw's end), and their plans; fewer only if 50 n draws miss."""
+    zs, xs = [], []
+    for _ in range(50):
+        z = draw(n)
+        x, penalty = commands.decode(z, q_end)
+        ok = penalty <= TERMINAL_TOL
+        zs.append(z[ok])
+        xs.append(x[ok])
+        if sum(len(a) for a in zs) >= n:
+            break
+    return np.concatenate(zs)[:n], np.concatenate(xs)[:n]
+
+
 def random_plans(problem: Problem, env: dict[str, float], n: int, seed: int, knots: int = 6) -> list[Plan]:
-    """n random plans that satisfy the limits and end at q_end (fewer if some cannot)."""
+    """n random plans, uniform in the knots, that satisfy the limits and end at q_end."""
     commands = SplineCommands(problem, knots)
     rng = env_rng(problem, env, seed, 101)
-    x, penalty = commands.decode(rng.uniform(0.0, 1.0, (n, commands.dim)), problem.terminal_position(env))
-    return [Plan.from_array(problem.dt, xi) for xi, pi in zip(x, penalty) if pi <= TERMINAL_TOL]
+    _, x = _valid(commands, problem.terminal_position(env), n, lambda k: rng.uniform(0.0, 1.0, (k, commands.dim)))
+    return [Plan.from_array(problem.dt, xi) for xi in x]
 
 
 def nojudge_rows(problem: Problem, env: dict[str, float], sim, n: int, seed: int) -> list[dict]:
@@ -84,21 +99,21 @@ def search(problem: Problem, env: dict[str, float], sim, seed: int, cfg: SearchC
     rng = env_rng(problem, env, seed, 202)
     q_end = problem.terminal_position(env)
     mean, std = np.full(commands.dim, 0.5), np.full(commands.dim, cfg.init_std)
-    tries, best = 0, -np.inf
+    tries = 0
     for _ in range(cfg.iterations):
-        z = np.clip(mean + std * rng.standard_normal((cfg.population, commands.dim)), 0.0, 1.0)
-        x, penalty = commands.decode(z, q_end)
+        z, x = _valid(commands, q_end, cfg.population,
+                      lambda k: np.clip(mean + std * rng.standard_normal((k, commands.dim)), 0.0, 1.0))
         scores = np.full(len(z), -np.inf)
-        for j in np.flatnonzero(penalty <= TERMINAL_TOL):
+        for j in range(len(z)):
             out = sim.run(Plan.from_array(problem.dt, x[j]), env["y_obj"], env["mu"])
             tries += 1
             scores[j] = _score(out, sim.rollout_config)
             if out.success:
                 return {"method": "search", "environment": env, "status": "found", "simulated_success": True,
                         "tries": tries, "plan": x[j].tolist(), "config": asdict(cfg)}
-        best = max(best, float(scores.max()))
-        elite = z[np.argsort(-scores)[:cfg.elite]]
-        mean, std = elite.mean(0), np.maximum(elite.std(0), cfg.min_std)
+        if len(z):
+            elite = z[np.argsort(-scores)[:cfg.elite]]
+            mean, std = elite.mean(0), np.maximum(elite.std(0), cfg.min_std)
     return {"method": "search", "environment": env, "status": "not_found", "simulated_success": False,
-            "tries": tries, "best_score": best, "config": asdict(cfg),
+            "tries": tries, "config": asdict(cfg),
             "message": f"no successful plan found in {tries} tries"}
