@@ -63,3 +63,25 @@ def test_generator_fine_tuning_starts_from_a_copy():
     assert all(torch.equal(before[k], v) for k, v in init.state_dict().items())  # the original is untouched
     w0, w1 = before["net.0.weight"], tuned.state_dict()["net.0.weight"]
     assert not torch.equal(w0, w1) and (w1 - w0).abs().max() < 0.05  # moved, but from there
+
+
+@pytest.mark.slow
+def test_a_round_with_sampled_limits_plans_each_environment_under_its_own(tmp_path):
+    from judgeopt.refine.loop import WIDE_LIMITS
+
+    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    cfg = RefineConfig(rounds=1, n=3, judge_epochs=1, chunk=3, limit_ranges=WIDE_LIMITS)
+    refine(problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_default", None, tmp_path, cfg, n_jobs=1,
+           progress=False)
+    rows = json.loads(next((tmp_path / "round_1" / "partial").glob("*.json")).read_text())
+    limits = [r["limits"] for r in rows]
+    assert len({json.dumps(lim, sort_keys=True) for lim in limits}) == len(rows) >= 1  # one draw per environment
+    for r, lim in zip(rows, limits):
+        for name, (lo, hi) in WIDE_LIMITS.to_dict().items():
+            assert lo <= lim[name] <= hi
+        command = json.loads(json.dumps(r["command"]))
+        qdot, f = [c[1] for c in command], [c[2] for c in command]
+        assert max(qdot) <= lim["qdot_max"] + 1e-6 and lim["f_min"] - 1e-6 <= min(f) <= max(f) <= lim["f_max"] + 1e-6
+    summary = json.loads((tmp_path / "round_1" / "summary.json").read_text())
+    assert RefineConfig(**{**json.loads(json.dumps(cfg.__dict__, default=lambda o: o.to_dict()))}).limit_ranges == \
+        WIDE_LIMITS and summary["round"] == 1

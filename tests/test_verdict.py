@@ -119,3 +119,13 @@ def test_with_limits_plans_what_a_fresh_load_for_those_limits_plans():
         np.testing.assert_allclose(a.plan.as_array(), b.plan.as_array(), atol=1e-9)
         assert a.info["setting"] == b.info["setting"]
     assert max(relaxed[-1].plan.ydot) <= 0.5 + 1e-6 and max(relaxed[-1].plan.f) <= 20.0 + 1e-6
+
+
+def test_a_calibration_for_other_models_is_refused_in_one_line(capsys, tmp_path):
+    from judgeopt.planners.calibration import save_calibration
+
+    empty = save_calibration(tmp_path / "other.json", {})
+    assert main(["solve", "--qdot-max", "0.4", "--method", "direct", "--no-simulate", "--calibration",
+                 str(empty)]) == 2
+    err = capsys.readouterr().err
+    assert "has no calibration for these planners" in err and len(err.strip().splitlines()) == 1

@@ -110,6 +110,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
             raise ProblemError(f"--simulate needs the environment variables y_obj and mu; the problem lacks {missing}")
     planners = Planners.load(problem, methods, judge=args.judge_model, generator=args.generator,
                              models_dir=args.models)
+    if args.set_calibration and not planners.calibrators:  # asked for by name, and it knows none of these planners
+        fitted = sorted({c.description for c in planners.calibration_file.values()})
+        raise ProblemError(f"--calibration {args.set_calibration} has no calibration for these planners (judge "
+                           f"{planners.judge_path.name}, these limits); it was fitted for: {'; '.join(fitted) or 'nothing'}."
+                           " Fit one with `judgeopt evaluate ... && judgeopt calibrate FOLDER --out FILE`, or leave "
+                           "--calibration out")
     sim = None
     if args.simulate:
         from judgeopt.sim.rollout import Simulator

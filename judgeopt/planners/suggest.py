@@ -61,7 +61,7 @@ class Suggestion:
         op = ">=" if self.value > self.current else "<="
         r = self.result
         return (f"likely with {self.limit} {op} {self.value:.3g} {self.unit} (now {self.current:g}): "
-                f"p = {r.success_probability:.2f} ({r.method}, {r.probability_source}'s probability); "
+                f"p = {r.success_probability:.2f} ({r.method}, {r.probability_source}); "
                 f"p = {self.p_at_bound:.2f} at {self.limit} = {self.bound:g} {self.unit}")
 
     def to_json(self) -> dict:
