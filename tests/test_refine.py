@@ -79,9 +79,8 @@ def test_a_round_with_sampled_limits_plans_each_environment_under_its_own(tmp_pa
     for r, lim in zip(rows, limits):
         for name, (lo, hi) in WIDE_LIMITS.to_dict().items():
             assert lo <= lim[name] <= hi
-        command = json.loads(json.dumps(r["command"]))
-        qdot, f = [c[1] for c in command], [c[2] for c in command]
+        qdot, f = [c[1] for c in r["command"]], [c[2] for c in r["command"]]
         assert max(qdot) <= lim["qdot_max"] + 1e-6 and lim["f_min"] - 1e-6 <= min(f) <= max(f) <= lim["f_max"] + 1e-6
-    summary = json.loads((tmp_path / "round_1" / "summary.json").read_text())
-    assert RefineConfig(**{**json.loads(json.dumps(cfg.__dict__, default=lambda o: o.to_dict()))}).limit_ranges == \
-        WIDE_LIMITS and summary["round"] == 1
+    judge_meta = json.loads((tmp_path / "round_1" / "judge.json").read_text())
+    # the recorded configuration gives the same ranges back (a resumed or repeated run samples the same limits)
+    assert RefineConfig(limit_ranges=judge_meta["refine_config"]["limit_ranges"]).limit_ranges == WIDE_LIMITS

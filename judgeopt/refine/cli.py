@@ -43,12 +43,18 @@ def cmd_refine(args: argparse.Namespace) -> int:
 
 
 def markdown(figures: list[dict]) -> str:
-    lines = ["| round | planner | simulated success | mean predicted | predicted - simulated | worst violation "
-             "| judge after: val acc | test acc |", "|---|---|---|---|---|---|---|---|"]
+    lines = ["| round | planner | simulated success | mean predicted | predicted - simulated | failures called "
+             "unlikely | successes called unlikely | worst violation | judge after: val acc | test acc |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     for f in figures:
         test = f.get("judge_after_test_accuracy")
+        failures = f["n"] - f["successes"]
+        caught, alarms = f.get("failures_called_unlikely"), f.get("successes_called_unlikely")
+        caught = "-" if caught is None else f"{caught}/{failures}"
+        alarms = "-" if alarms is None else f"{alarms}/{f['successes']}"
         lines.append(f"| {f['round']} | {f['method']} | {f['successes']}/{f['n']} ({f['success_pct']:.0f} %) "
-                     f"| {f['predicted_mean']:.3f} | {f['calibration_gap_pct']:+.0f} pts | {f['violation_max']:.1e} "
+                     f"| {f['predicted_mean']:.3f} | {f['calibration_gap_pct']:+.0f} pts | {caught} | {alarms} "
+                     f"| {f['violation_max']:.1e} "
                      f"| {f['judge_after_val_accuracy']:.3f} | {'-' if test is None else f'{test:.3f}'} |")
     return ("Round k's plans are made with the models of round k - 1 (round 1: the starting models) on "
             "environments none of them has seen.\n\n" + "\n".join(lines) + "\n")

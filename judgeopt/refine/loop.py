@@ -152,6 +152,9 @@ def _outcomes(rows: list[dict], problem: Problem, k: int):
 
 
 def _round_figures(rows: list[dict], k: int) -> list[dict]:
+    """Per method: success, prediction, and how the verdict (p >= LIKELY) did on the outcomes."""
+    from judgeopt.planners.result import LIKELY
+
     out = []
     for m in sorted({r["method"] for r in rows}):
         rs = [r for r in rows if r["method"] == m]
@@ -160,7 +163,9 @@ def _round_figures(rows: list[dict], k: int) -> list[dict]:
         out.append({"round": k, "method": m, "n": len(rs), "successes": int(sum(r["success"] for r in rs)),
                     "success_pct": 100 * float(sim), "predicted_mean": float(pred),
                     "calibration_gap_pct": 100 * float(pred - sim),
-                    "violation_max": float(max(r["violation"] for r in rs))})
+                    "violation_max": float(max(r["violation"] for r in rs)),
+                    "failures_called_unlikely": sum(not r["success"] and r["predicted"] < LIKELY for r in rs),
+                    "successes_called_unlikely": sum(r["success"] and r["predicted"] < LIKELY for r in rs)})
     return out
 
 
@@ -185,7 +190,9 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
         if summary_path.exists():  # finished earlier: reuse its models and data
             summary = json.loads(summary_path.read_text())
             aggregated.append(load(folder / "outcomes.h5"))
-            figures += summary["figures"]
+            rows = [r for f in sorted((folder / "partial").glob("*.json")) for r in json.loads(f.read_text())]
+            now = {f["method"]: f for f in _round_figures(rows, k)} if rows else {}  # columns added since
+            figures += [{**now.get(f["method"], {}), **f} for f in summary["figures"]]
             judge, generator = summary["judge"], summary["generator"]
             continue
         rows = _plan_round(problem, cfg, k, judge, generator, folder, n_jobs, scheduler, progress)
