@@ -126,3 +126,33 @@ def test_a_map_that_loses_to_the_success_rate_reports_the_rate():
     c = fit("s", "direct", "d", ["y_obj", "mu"], envs, np.full(100, 0.99), y)
     assert c.constant and c.base_log_loss < c.cv_log_loss
     assert np.allclose(c.predict(envs, np.full(100, 0.99)), 0.99)
+
+
+def test_a_calibration_over_limits_learns_from_the_limits_and_covers_limits_between():
+    """Outcomes that depend on f_max (the judge says 0.99 everywhere): one calibrator for the
+    family of settings that differ only in their limits, with the limits as inputs."""
+    p = load_problem(ROOT / "problems" / "paper_sim.toml")
+    family = setting_id("direct", p, {"judge": "a"}, over_limits=True)
+    assert setting_id("direct", p.with_overrides(f_max=12.0), {"judge": "a"}, over_limits=True) == family
+    assert setting_id("direct", p.with_overrides(f_max=12.0), {"judge": "a"}) != setting_id("direct", p, {"judge": "a"})
+    rng = np.random.default_rng(0)
+    rows = []
+    for i in range(600):
+        f_max = rng.uniform(11, 30)
+        limits = {**{k: getattr(p, k) for k in ("q_min", "q_max", "qdot_min", "qdot_max", "f_min")}, "f_max": f_max}
+        rows.append({"setting": f"s{i}", "family": family, "method": "direct", "limits": limits,
+                     "environment": {"y_obj": rng.uniform(0.1, 0.28), "mu": rng.uniform(1, 3)},
+                     "predicted_success": 0.99, "simulated_success": bool(rng.random() < (0.1 if f_max < 15 else 0.95))})
+    fitted = fit_from_rows(rows, {}, ["y_obj", "mu"], over_limits=True)
+    (cal,) = fitted.values()
+    assert cal.setting == family and "f_max" in cal.env_names
+    values = {**rows[0]["limits"], "y_obj": 0.2, "mu": 2.0}
+    low = cal.annotate({**values, "f_max": 12.5}, 0.99)
+    high = cal.annotate({**values, "f_max": 25.0}, 0.99)
+    assert low["calibrated_success"] < 0.3 < 0.85 < high["calibrated_success"] and low["calibration_covers"]
+    assert not cal.annotate({**values, "f_max": 45.0}, 0.99)["calibration_covers"]
+    # an evaluation row of any limits in the family gets it
+    row = {"setting": "another", "family": family, "limits": {**rows[0]["limits"], "f_max": 12.5},
+           "environment": {"y_obj": 0.2, "mu": 2.0}, "predicted_success": 0.99}
+    calibrate_rows([row], fitted, ["y_obj", "mu"])
+    assert row["calibrated_success"] == pytest.approx(low["calibrated_success"])

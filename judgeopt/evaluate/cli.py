@@ -57,19 +57,28 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import io
 
     from judgeopt.evaluate.report import _atomic_text
-    from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, markdown_sweep, parse_limit_set, plot_sweep,
-                                         summarise_sweep, sweep_rows)
+    from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, PLANNERS, markdown_sweep, parse_limit_set, plot_sweep,
+                                         random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
+    from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.planners.problem import load_problem
+    from judgeopt.planners.result import reassess
     from judgeopt.planners.solve import resolve
 
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
     mu = _mu_range(args.mu or "1,3")
-    sets = [parse_limit_set(t) for t in (args.limits or DEFAULT_LIMIT_SETS)]
-    rows, notes = sweep_rows(problem, sets, mu, args.models)
+    if args.random_limits:
+        sets = random_limit_sets(args.random_limits, args.seed)
+    else:
+        sets = [parse_limit_set(t) for t in (args.limits or DEFAULT_LIMIT_SETS)]
+    rows, notes = sweep_rows(problem, sets, mu, args.models, args.methods or PLANNERS, args.baselines)
     out = Path(args.out or "out/evaluate/sweep")
+    calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    for rs in results.values():  # with the calibration there is now (cached plans may predate it)
+        calibrate_rows(rs, calibrators, problem.env_names)
+        reassess(rs)
     summary = summarise_sweep(sets, rows, results)
     title = (f"Held-out limit sets ({args.n} environments each, y_obj in [0.10, 0.28], mu in [{mu[0]:g}, {mu[1]:g}], "
              f"seed {args.seed}; judge {problem.judge})")
@@ -120,6 +129,8 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
         ["--judge-model", args.judge_model] if args.judge_model else [])
     extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--mu", args.mu] if args.mu else [])
+    extra += (["--random-limits", str(args.random_limits)] if args.random_limits else []) + (
+        [] if args.baselines else ["--no-baselines"])
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
@@ -148,7 +159,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                                "existed); rerun the evaluation")
     env_names = list(with_setting[0]["environment"])
     descriptions = {r["setting"]: r.get("setting_description", r["method"]) for r in with_setting}
-    fitted = fit_from_rows(with_setting, descriptions, env_names, min_n=args.min_n, sources=sources)
+    if args.over_limits and not all("family" in r and "limits" in r for r in with_setting):
+        raise CalibrationError(f"{args.folders}: these plans do not record their limits (made before --over-limits "
+                               "existed); rerun the evaluation")
+    fitted = fit_from_rows(with_setting, descriptions, env_names, min_n=args.min_n, sources=sources,
+                           over_limits=args.over_limits)
     if not fitted:
         raise CalibrationError(f"no setting has {args.min_n} replayed outcomes in {args.folders}; evaluate more "
                                "environments or lower --min-n")
@@ -179,6 +194,10 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
                    "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
     e.add_argument("--mu", help="sweep: friction range LO,HI of the environments (default 1,3)")
+    e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from "
+                   "refinement's wide ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
+    e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
+                   help="sweep: also the no-judge baseline and the feasibility search (default: on)")
     e.add_argument("--n", type=int, default=100, help="environments per row")
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--problem", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
@@ -206,4 +225,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--out", default="models/calibration_default.json")
     c.add_argument("--min-n", type=int, default=50, help="fewest outcomes a setting needs")
     c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
+    c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "
+                   "limits in the folders (a sweep's), with q̇ and force limits as inputs beside the environment: it "
+                   "then also covers limits between those it saw")
     c.set_defaults(func=cmd_calibrate)

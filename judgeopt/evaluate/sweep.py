@@ -57,8 +57,18 @@ def parse_limit_set(text: str) -> LimitSet:
     return LimitSet(", ".join(f"{k} {v:g}" for k, v in pairs), tuple(pairs))
 
 
-def sweep_rows(problem: Problem, sets: list[LimitSet], mu: tuple[float, float],
-               models_dir: str = "models") -> tuple[list[Row], list[str]]:
+def random_limit_sets(k: int, seed: int) -> list[LimitSet]:
+    """k limit sets drawn from the wide ranges (q̇_max, f_min, f_max) refinement samples, seeded."""
+    from judgeopt.planners.generator import CONDITION_NAMES, WIDE_LIMITS
+
+    if k < 1:
+        raise ProblemError(f"--random-limits {k}: need at least one limit set")
+    draws = WIDE_LIMITS.sample(np.random.default_rng([seed, 4241]), k)
+    return [parse_limit_set(",".join(f"{n}={v:.3g}" for n, v in zip(CONDITION_NAMES, d))) for d in draws]
+
+
+def sweep_rows(problem: Problem, sets: list[LimitSet], mu: tuple[float, float], models_dir: str = "models",
+               planners=PLANNERS, baselines: bool = True) -> tuple[list[Row], list[str]]:
     """Rows for run_table (planners, no-judge, search per set) and notes on what was left out.
     A limit set that contradicts the problem's other fields is an error naming the set; one
     whose limits make some environments unreachable is run (those are reported infeasible)."""
@@ -70,12 +80,13 @@ def sweep_rows(problem: Problem, sets: list[LimitSet], mu: tuple[float, float],
             p = problem.with_overrides(**dict(ls.overrides))
         except ProblemError as exc:
             raise ProblemError(f"limit set '{ls.label}': {exc}") from None
-        for m in PLANNERS:
+        for m in planners:
             if m == "amortized" and choose_models(p, (m,), None, None, models_dir).generator is None:
                 notes.append(f"{ls.label}: no generator in {models_dir}/ covers these limits, so no amortised row")
                 continue
             rows.append(Row(ls.label, m, None, mu, overrides=ls.overrides))
-        rows += [Row(ls.label, m, None, mu, overrides=ls.overrides) for m in ("nojudge", "search")]
+        if baselines:
+            rows += [Row(ls.label, m, None, mu, overrides=ls.overrides) for m in ("nojudge", "search")]
     return rows, notes
 
 

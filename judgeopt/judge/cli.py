@@ -60,7 +60,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     import torch
 
     import judgeopt
-    from judgeopt.data.dataset import load
+    from judgeopt.data.dataset import DatasetError, concatenate, load
     from judgeopt.judge.evaluate import evaluate_judge
     from judgeopt.judge.model import JudgeConfig
     from judgeopt.judge.store import save_judge, sha256_file
@@ -71,15 +71,19 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     if out.suffix in (".pt", ".json"):
         out = out.with_suffix("")
     torch.set_num_threads(args.jobs or os.cpu_count() or 1)
-    train_ds = load(args.train)
+    parts = [load(p) for p in args.train]
+    try:
+        train_ds = concatenate(parts) if len(parts) > 1 else parts[0]
+    except DatasetError as exc:
+        raise CLIError(f"--train {' '.join(args.train)}: {exc}") from None
     test_ds = load(args.test) if args.test else None
     env_names = args.env_names or tuple(train_ds.env_names)
     missing = [n for n in env_names if n not in train_ds.env_names]
     if missing:
-        raise CLIError(f"--env-names {','.join(missing)}: not in {args.train} (it has {','.join(train_ds.env_names)})")
+        raise CLIError(f"--env-names {','.join(missing)}: not in {' '.join(args.train)} (it has {','.join(train_ds.env_names)})")
     if test_ds is not None and (test_ds.horizon != train_ds.horizon or test_ds.dt != train_ds.dt):
         raise CLIError(f"{args.test} (N = {test_ds.horizon}, dt = {test_ds.dt}) does not match "
-                       f"{args.train} (N = {train_ds.horizon}, dt = {train_ds.dt})")
+                       f"{' '.join(args.train)} (N = {train_ds.horizon}, dt = {train_ds.dt})")
     config = JudgeConfig(lstm_units=args.lstm_units, fc_units=args.fc_units, dropout=args.dropout,
                          lstm_dropout=args.lstm_dropout, env_names=env_names, horizon=train_ds.horizon, dt=train_ds.dt)
     tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
@@ -100,8 +104,9 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         "command": _cli()._command_line(),
         "seed": args.seed,
         "invert_labels": bool(args.invert_labels),
-        "train_data": {"path": str(args.train), "sha256": sha256_file(args.train), "n": train_ds.n,
-                       "success_ratio": train_ds.success_ratio(), "env_names": list(train_ds.env_names)},
+        "train_data": {"path": " + ".join(args.train), "sha256": " + ".join(sha256_file(p) for p in args.train),
+                       "n": train_ds.n, "success_ratio": train_ds.success_ratio(),
+                       "env_names": list(train_ds.env_names)},
         "test_data": ({"path": str(args.test), "sha256": sha256_file(args.test), "n": test_ds.n,
                        "success_ratio": test_ds.success_ratio()} if test_ds is not None else None),
         "train_config": result.config,
@@ -238,7 +243,7 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
         description="LSTM success judge (paper Fig. 2, Table 2) trained with Adam on the responses; the epoch "
         "with the best accuracy on a validation split of --train is kept, --test is only reported. Writes "
         "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.")
-    t.add_argument("--train", required=True, help="training dataset (HDF5)")
+    t.add_argument("--train", required=True, nargs="+", help="training dataset(s) (HDF5; several are concatenated)")
     t.add_argument("--test", help="held-out test dataset (HDF5), reported every epoch")
     t.add_argument("--out", required=True, help="model path without suffix, e.g. models/judge_default")
     t.add_argument("--epochs", type=_positive, default=TrainConfig.epochs)

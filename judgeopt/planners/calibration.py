@@ -32,12 +32,19 @@ class CalibrationError(ProblemError):
     """A calibration file that is missing, malformed or from another format."""
 
 
-def setting_id(method: str, problem: Problem, shas: dict[str, str]) -> str:
+#: the problem fields a calibrator fitted "over limits" reads as inputs, like the environment
+LIMIT_NAMES = SECTIONS["limits"]
+
+
+def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False) -> str:
     """What a planner's outcomes depend on besides the environment: the method, the models'
-    weights (by hash, not by path) and every limit and solver option."""
+    weights (by hash, not by path) and every limit and solver option. `over_limits`: the same
+    without the limits, the key of a calibrator that takes the limits as inputs."""
     skip = {"name", "description", "source", "environment", *SECTIONS["models"]}
+    skip |= set(LIMIT_NAMES) if over_limits else set()
     p = {k: v for k, v in problem.to_dict().items() if k not in skip}
-    blob = json.dumps({"method": method, "problem": p, "models": shas}, sort_keys=True, default=str)
+    blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
+                      sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
@@ -179,33 +186,43 @@ def load_calibration(path: str | Path) -> dict[str, Calibrator]:
     return out
 
 
+def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str | None) -> Calibrator | None:
+    """The calibrator for this exact setting, else one fitted over limits for its family."""
+    return calibrators.get(setting or "") or calibrators.get(family or "")
+
+
 def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_names: Iterable[str]) -> None:
     """Add `calibrated_success` (and whether the environment was in the fitted ranges) to
     evaluation rows whose setting has a calibrator; other rows are left as they are."""
-    env_names = list(env_names)
     seen = {k: set(c.fitted_on) for k, c in calibrators.items()}
     for r in rows:
-        cal = calibrators.get(r.get("setting", ""))
+        cal = lookup(calibrators, r.get("setting"), r.get("family"))
         if cal is None or r.get("predicted_success") is None:
             continue
-        r.update(cal.annotate(r["environment"], r["predicted_success"]))
-        r["calibration_fitted_on_env"] = env_fingerprint([r["environment"][k] for k in env_names]) in seen[cal.setting]
+        values = {**r.get("limits", {}), **r["environment"]}
+        r.update(cal.annotate(values, r["predicted_success"]))
+        r["calibration_fitted_on_env"] = env_fingerprint([values[k] for k in cal.env_names]) in seen[cal.setting]
 
 
 def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: list[str], min_n: int = 50,
-                  sources: list[str] | None = None) -> dict[str, Calibrator]:
-    """One calibrator per setting that has at least `min_n` replayed outcomes."""
+                  sources: list[str] | None = None, over_limits: bool = False) -> dict[str, Calibrator]:
+    """One calibrator per setting that has at least `min_n` replayed outcomes. `over_limits`:
+    one per family of settings that differ only in their limits (rows of a sweep, or of
+    evaluations under many limits), with the limits as inputs beside the environment."""
+    key = "family" if over_limits else "setting"
+    names = list(env_names) + (list(LIMIT_NAMES) if over_limits else [])
     by: dict[str, list[dict]] = {}
     for r in rows:
-        if r.get("setting") and r.get("predicted_success") is not None and r.get("simulated_success") is not None:
-            by.setdefault(r["setting"], []).append(r)
+        if r.get(key) and r.get("predicted_success") is not None and r.get("simulated_success") is not None:
+            by.setdefault(r[key], []).append(r)
     out = {}
     for setting, rs in by.items():
         if len(rs) < min_n:
             continue
-        envs = np.array([[r["environment"][k] for k in env_names] for r in rs])
-        out[setting] = fit(setting, rs[0]["method"], descriptions.get(setting, rs[0]["method"]), env_names, envs,
-                           np.array([r["predicted_success"] for r in rs]),
+        values = np.array([[{**r.get("limits", {}), **r["environment"]}[k] for k in names] for r in rs])
+        description = descriptions.get(rs[0]["setting"], rs[0]["method"])
+        out[setting] = fit(setting, rs[0]["method"], description + (", over limits" if over_limits else ""), names,
+                           values, np.array([r["predicted_success"] for r in rs]),
                            np.array([float(r["simulated_success"]) for r in rs]), sources=sources)
     return out
 

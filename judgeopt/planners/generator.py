@@ -110,6 +110,12 @@ class LimitRanges:
                                f"{problem.steps} steps (reach {reach[1]:.4g} m); raise the range's lower end")
 
 
+#: limit ranges wider than any shipped problem, down to forces and speeds under which no scoop
+#: succeeds at high friction (q̇_max from what reaches y_obj = 0.28 m): refinement's default,
+#: the sweep's random limit sets, and the shipped refined conditioned generator's ranges
+WIDE_LIMITS = LimitRanges(qdot_max=(0.22, 1.2), f_min=(0.0, 10.0), f_max=(11.0, 30.0))
+
+
 def limits_of(problem: Problem) -> np.ndarray:
     """The conditioned limits of a problem, in CONDITION_NAMES order."""
     return np.array([getattr(problem, k) for k in CONDITION_NAMES], dtype=float)

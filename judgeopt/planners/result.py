@@ -102,6 +102,16 @@ def assess(result: PlanResult) -> PlanResult:
     return result
 
 
+def reassess(rows: list[dict]) -> None:
+    """`assess` for result rows (PlanResult.to_json dicts), e.g. after calibrate_rows added a
+    calibrated probability to plans made before the calibration existed."""
+    for r in rows:
+        if r.get("calibrated_success") is not None:
+            r["success_probability"], r["probability_source"] = float(r["calibrated_success"]), "calibrated"
+        if r.get("success_probability") is not None:
+            r["verdict"] = "likely" if r["success_probability"] >= LIKELY else "unlikely"
+
+
 def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> PlanResult | None:
     """The answer every planner gives when no trajectory can meet the limits (None if one can):
     the conflict is reported before any solver or search runs."""

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Sequence
 
 from judgeopt.judge.model import Judge
+from judgeopt.planners.calibration import LIMIT_NAMES
 from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
@@ -43,12 +44,13 @@ class ChosenModels:
     generator: Path | None
     shas: dict[str, str]
 
-    def settings(self, methods: Sequence[str]) -> dict[str, str]:
-        """method -> calibration.setting_id: the CEM baseline uses the judge only."""
+    def settings(self, methods: Sequence[str], over_limits: bool = False) -> dict[str, str]:
+        """method -> calibration.setting_id (over_limits: the id of the settings that differ
+        from it only in their limits); the CEM baseline uses the judge only."""
         from judgeopt.planners.calibration import setting_id
 
-        return {m: setting_id(m, self.problem, {k: v for k, v in self.shas.items() if m != "cem" or k == "judge"})
-                for m in methods}
+        return {m: setting_id(m, self.problem, {k: v for k, v in self.shas.items() if m != "cem" or k == "judge"},
+                              over_limits) for m in methods}
 
 
 def choose_models(problem: Problem, methods: Sequence[str], judge: str | Path | None = None,
@@ -88,8 +90,9 @@ class Planners:
     notes: list[str] = field(default_factory=list)
     methods: tuple[str, ...] = METHODS
     settings: dict[str, str] = field(default_factory=dict)  # method -> calibration.setting_id
+    families: dict[str, str] = field(default_factory=dict)  # method -> the same without the limits
     descriptions: dict[str, str] = field(default_factory=dict)
-    calibrators: dict = field(default_factory=dict)  # setting -> calibration.Calibrator
+    calibrators: dict = field(default_factory=dict)  # method -> calibration.Calibrator
     chosen: ChosenModels | None = None
     generator_meta: dict | None = None
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
@@ -163,11 +166,12 @@ class Planners:
 
     def _settings(self, chosen: ChosenModels) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.planners.calibration import load_calibration
+        from judgeopt.planners.calibration import load_calibration, lookup
 
         p, jpath = self.problem, chosen.judge
         self.chosen = chosen
         self.settings = chosen.settings(self.methods)
+        self.families = chosen.settings(self.methods, over_limits=True)
         for m in self.methods:
             extra = (f", generator {self.generator_path.name}" if m != "cem" and self.generator_path else "") + (
                 f", ensemble {p.ensemble} - {p.pessimism:g} std" if m == "direct" and p.ensemble else "") + (
@@ -180,7 +184,8 @@ class Planners:
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
             self.calibration_file = load_calibration(path)
-        self.calibrators = {s: self.calibration_file[s] for s in self.settings.values() if s in self.calibration_file}
+        found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
+        self.calibrators = {m: c for m, c in found.items() if c is not None}
 
     def with_limits(self, **limits: float) -> "Planners":
         """The same judge under other position, velocity or force limits, without rebuilding the
@@ -192,8 +197,8 @@ class Planners:
 
         problem = self.problem.with_overrides(**limits)
         chosen = choose_models(problem, self.methods, self.judge_path, self.generator_given, self.models_dir)
-        out = dataclasses.replace(self, problem=problem, notes=list(self.notes), settings={}, descriptions={},
-                                  calibrators={})
+        out = dataclasses.replace(self, problem=problem, notes=list(self.notes), settings={}, families={},
+                                  descriptions={}, calibrators={})
         gpath = chosen.generator
         if gpath is not None:
             if gpath not in self.loaded:
@@ -231,10 +236,12 @@ class Planners:
         if self.cem is not None:
             results.append(self.cem.solve(env))
         for r in results:
-            r.info.update(setting=self.settings[r.method], setting_description=self.descriptions[r.method])
-            cal = self.calibrators.get(r.info["setting"])
+            limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
+            r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,
+                          setting_description=self.descriptions[r.method])
+            cal = self.calibrators.get(r.method)
             if cal is not None and r.predicted_success is not None:
-                r.info.update(cal.annotate(env, r.predicted_success))
+                r.info.update(cal.annotate({**limits, **env}, r.predicted_success))
             assess(r)
         if simulator is not None:
             for r in results:

@@ -34,11 +34,6 @@ from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
 
 
-#: refinement's default limit ranges: wider than any shipped problem, down to forces and speeds
-#: under which no scoop succeeds at high friction (q̇_max from what reaches y_obj = 0.28 m)
-WIDE_LIMITS = LimitRanges(qdot_max=(0.22, 1.2), f_min=(0.0, 10.0), f_max=(11.0, 30.0))
-
-
 @dataclass(frozen=True)
 class RefineConfig:
     rounds: int = 3
