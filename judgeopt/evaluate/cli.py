@@ -61,6 +61,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
                                          random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
     from judgeopt.planners.calibration import calibrate_rows
+    from judgeopt.planners.cli import limit_ranges_from_args
+    from judgeopt.planners.generator import WIDE_LIMITS
     from judgeopt.planners.problem import load_problem
     from judgeopt.planners.result import reassess
     from judgeopt.planners.solve import resolve
@@ -68,7 +70,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
     mu = _mu_range(args.mu or "1,3")
     if args.random_limits:
-        sets = random_limit_sets(args.random_limits, args.seed)
+        ranges = limit_ranges_from_args(args, WIDE_LIMITS)
+        ranges.check(problem)
+        sets = random_limit_sets(args.random_limits, args.seed, ranges)
     else:
         sets = [parse_limit_set(t) for t in (args.limits or DEFAULT_LIMIT_SETS)]
     rows, notes = sweep_rows(problem, sets, mu, args.models, args.methods or PLANNERS, args.baselines)
@@ -131,6 +135,8 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--mu", args.mu] if args.mu else [])
     extra += (["--random-limits", str(args.random_limits)] if args.random_limits else []) + (
         [] if args.baselines else ["--no-baselines"])
+    extra += [f"--{k.replace('_', '-')} {v[0]:g},{v[1]:g}" for k, v in vars(args).items()
+              if k.endswith("_range") and v is not None]
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
@@ -194,8 +200,12 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
                    "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
     e.add_argument("--mu", help="sweep: friction range LO,HI of the environments (default 1,3)")
-    e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from "
-                   "refinement's wide ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
+    e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from the "
+                   "--*-range ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
+    from judgeopt.planners.cli import add_limit_range_arguments
+    from judgeopt.planners.generator import WIDE_LIMITS
+
+    add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"), WIDE_LIMITS)
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")
     e.add_argument("--n", type=int, default=100, help="environments per row")

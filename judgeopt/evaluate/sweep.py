@@ -57,13 +57,14 @@ def parse_limit_set(text: str) -> LimitSet:
     return LimitSet(", ".join(f"{k} {v:g}" for k, v in pairs), tuple(pairs))
 
 
-def random_limit_sets(k: int, seed: int) -> list[LimitSet]:
-    """k limit sets drawn from the wide ranges (q̇_max, f_min, f_max) refinement samples, seeded."""
+def random_limit_sets(k: int, seed: int, ranges=None) -> list[LimitSet]:
+    """k limit sets (q̇_max, f_min, f_max) drawn from `ranges` (default: the wide ranges
+    refinement samples), seeded."""
     from judgeopt.planners.generator import CONDITION_NAMES, WIDE_LIMITS
 
     if k < 1:
         raise ProblemError(f"--random-limits {k}: need at least one limit set")
-    draws = WIDE_LIMITS.sample(np.random.default_rng([seed, 4241]), k)
+    draws = (ranges or WIDE_LIMITS).sample(np.random.default_rng([seed, 4241]), k)
     return [parse_limit_set(",".join(f"{n}={v:.3g}" for n, v in zip(CONDITION_NAMES, d))) for d in draws]
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Iterable
@@ -221,7 +222,9 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
             continue
         values = np.array([[{**r.get("limits", {}), **r["environment"]}[k] for k in names] for r in rs])
         description = descriptions.get(rs[0]["setting"], rs[0]["method"])
-        out[setting] = fit(setting, rs[0]["method"], description + (", over limits" if over_limits else ""), names,
+        if over_limits:  # the family's description: without the first row's limits
+            description = re.sub(r"[,;] q̇_max [^,]*, f in \[[^\]]*\]", "", description) + ", over limits"
+        out[setting] = fit(setting, rs[0]["method"], description, names,
                            values, np.array([r["predicted_success"] for r in rs]),
                            np.array([float(r["simulated_success"]) for r in rs]), sources=sources)
     return out

@@ -176,8 +176,7 @@ class Planners:
             extra = (f", generator {self.generator_path.name}" if m != "cem" and self.generator_path else "") + (
                 f", ensemble {p.ensemble} - {p.pessimism:g} std" if m == "direct" and p.ensemble else "") + (
                 f", trust region {p.trust_region:g}" if m == "direct" and p.trust_region is not None else "")
-            self.descriptions[m] = (f"{m}, judge {jpath.name}, q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
-                                    + extra)
+            self.descriptions[m] = f"{m}, judge {jpath.name}{extra}; q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
         if not self.calibration_file:
             path = resolve(p.calibration) if p.calibration else None
             if path is None or not path.exists():
