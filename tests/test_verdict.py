@@ -32,6 +32,8 @@ def test_the_probability_stood_behind_is_the_calibrated_one_where_it_exists():
     calibrated = assess(_result(0.99, calibrated_success=0.2, calibration_covers=True))
     assert (calibrated.success_probability, calibrated.probability_source, calibrated.verdict) == (
         0.2, "calibrated", "unlikely")
+    outside = assess(_result(0.1, calibrated_success=0.7, calibration_covers=False))  # no extrapolated map
+    assert (outside.success_probability, outside.probability_source, outside.verdict) == (0.1, "judge", "unlikely")
     assert assess(_result(LIKELY)).verdict == "likely" and assess(_result(LIKELY - 1e-9)).verdict == "unlikely"
     no_plan = assess(PlanResult("direct", {}, None, None, "infeasible", 0.0))
     assert no_plan.verdict is None and no_plan.to_json()["verdict"] is None

@@ -67,8 +67,8 @@ def _table(results) -> str:
         viol = f"{r.max_constraint_violation:.1e} ({r.worst_constraint})" if r.max_constraint_violation > 0 else "0"
         t = r.solve_time_s
         p = f"{r.success_probability:.3f} ({r.probability_source}" + (
-            ", outside fitted range)" if r.probability_source == "calibrated" and not r.info.get("calibration_covers")
-            else ")")
+            "; calibration does not cover this)" if r.info.get("calibrated_success") is not None
+            and r.probability_source == "judge" else ")")
         rows.append((r.method, f"{r.predicted_success:.3f}", p, r.verdict, sim, f"{r.plan.ydot.max():.3f}",
                      f"{r.plan.f.min():.1f} to {r.plan.f.max():.1f}", viol,
                      r.status + (f" ({r.iterations} it)" if r.iterations is not None else ""),

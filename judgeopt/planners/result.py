@@ -91,11 +91,12 @@ class PlanResult:
 
 def assess(result: PlanResult) -> PlanResult:
     """Set the probability the tool stands behind and so the verdict: the calibrated one where a
-    calibration was fitted on replayed outcomes of this planner setting, else the judge's own
-    (never checked against outcomes for this setting; a judge is most over-confident exactly
-    where a planner maximised it)."""
+    calibration fitted on replayed outcomes of this planner setting covers the environment (and
+    limits), else the judge's own (never checked against outcomes there; a judge is most
+    over-confident exactly where a planner maximised it). A calibration map is not trusted
+    outside the ranges it was fitted on: it extrapolates its success rate, not the physics."""
     cal = result.info.get("calibrated_success")
-    if cal is not None:
+    if cal is not None and result.info.get("calibration_covers"):
         result.success_probability, result.probability_source = float(cal), "calibrated"
     elif result.predicted_success is not None and result.plan is not None:
         result.success_probability, result.probability_source = float(result.predicted_success), "judge"
@@ -106,8 +107,10 @@ def reassess(rows: list[dict]) -> None:
     """`assess` for result rows (PlanResult.to_json dicts), e.g. after calibrate_rows added a
     calibrated probability to plans made before the calibration existed."""
     for r in rows:
-        if r.get("calibrated_success") is not None:
+        if r.get("calibrated_success") is not None and r.get("calibration_covers"):
             r["success_probability"], r["probability_source"] = float(r["calibrated_success"]), "calibrated"
+        elif r.get("predicted_success") is not None and r.get("success_probability") is not None:
+            r["success_probability"], r["probability_source"] = float(r["predicted_success"]), "judge"
         if r.get("success_probability") is not None:
             r["verdict"] = "likely" if r["success_probability"] >= LIKELY else "unlikely"
 
