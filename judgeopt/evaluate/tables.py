@@ -163,7 +163,8 @@ def _with_path(path: Path, problem: Problem, row: Row, envs: np.ndarray, first: 
 
 
 #: rows that need no judge: random constraint-satisfying plans, and a search scored by the simulator
-SIMULATOR_ROWS = {"nojudge": 8, "search": None}  # nojudge: random plans per environment
+SIMULATOR_ROWS = ("nojudge", "search")
+NOJUDGE_PLANS = 8  # random plans per environment in a "nojudge" row
 
 
 def _simulator_rows(problem: Problem, method: str, envs: np.ndarray, first: int, seed: int) -> list[dict]:
@@ -173,7 +174,7 @@ def _simulator_rows(problem: Problem, method: str, envs: np.ndarray, first: int,
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
-        found = (nojudge_rows(problem, env, _simulator(), SIMULATOR_ROWS["nojudge"], seed) if method == "nojudge"
+        found = (nojudge_rows(problem, env, _simulator(), NOJUDGE_PLANS, seed) if method == "nojudge"
                  else [search(problem, env, _simulator(), seed)])
         rows += [{**r, "env_index": first + i} for r in found]
     return rows
