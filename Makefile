@@ -22,8 +22,9 @@ generators: setup
 	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --judge-model models/judge_default --out models/generator_paper_sim
 	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --judge-model models/judge_default --out models/generator_paper_sim_slow
 
-# remake the shipped datasets (about 11 min on 2 cores; resumable)
+# remake the shipped datasets (about 18 min on 2 cores; resumable)
 data: setup
 	$(BIN)/judgeopt collect --out data/train.h5 --seed 0 --per-env 1000
 	$(BIN)/judgeopt collect --out data/test.h5 --seed 1 --n 1000
+	$(BIN)/judgeopt collect --out data/train_random.h5 --seed 3 --n 15000
 	$(BIN)/judgeopt collect --out data/test_seed2.h5 --seed 2 --n 1000
