@@ -93,8 +93,6 @@ class Planners:
     families: dict[str, str] = field(default_factory=dict)  # method -> the same without the limits
     descriptions: dict[str, str] = field(default_factory=dict)
     calibrators: dict = field(default_factory=dict)  # method -> calibration.Calibrator
-    chosen: ChosenModels | None = None
-    generator_meta: dict | None = None
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
     models_dir: str | Path = "models"
     generator_given: str | Path | None = None  # a generator named by the user is never swapped
@@ -126,7 +124,7 @@ class Planners:
                                      "(reported below)")
                 if gmeta.get("judge", {}).get("weights_sha256") != jmeta["weights_sha256"]:
                     out.notes.append(f"generator {gpath} was trained against another judge")
-                out.generator_path, out.generator_meta = Path(gpath), gmeta
+                out.generator_path = Path(gpath)
                 out.amortized = AmortizedPlanner(gen, problem, jmodel)
             elif "amortized" in methods:
                 raise ProblemError(
@@ -169,7 +167,6 @@ class Planners:
         from judgeopt.planners.calibration import load_calibration, lookup
 
         p, jpath = self.problem, chosen.judge
-        self.chosen = chosen
         self.settings = chosen.settings(self.methods)
         self.families = chosen.settings(self.methods, over_limits=True)
         for m in self.methods:
@@ -202,7 +199,7 @@ class Planners:
         if gpath is not None:
             if gpath not in self.loaded:
                 self.loaded[gpath] = load_generator(gpath)
-            gen, out.generator_meta = self.loaded[gpath]
+            gen, _ = self.loaded[gpath]
             out.generator_path, out.amortized = Path(gpath), AmortizedPlanner(gen, problem, self.judge)
         elif "amortized" in self.methods or self.amortized is not None:
             out.methods = tuple(m for m in self.methods if m != "amortized")
