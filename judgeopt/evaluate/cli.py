@@ -189,6 +189,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
+    from judgeopt.planners.cli import add_limit_range_arguments
+    from judgeopt.planners.generator import WIDE_LIMITS
+
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
                        "seeded environments per row (rows with the same mu range share them). Parallel processes "
@@ -202,9 +205,6 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--mu", help="sweep: friction range LO,HI of the environments (default 1,3)")
     e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from the "
                    "--*-range ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
-    from judgeopt.planners.cli import add_limit_range_arguments
-    from judgeopt.planners.generator import WIDE_LIMITS
-
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"), WIDE_LIMITS)
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")
