@@ -10,7 +10,8 @@ import pytest
 import torch
 
 from judgeopt.cli import main
-from judgeopt.planners.generator import CONDITION_NAMES, AmortizedPlanner, Generator, LimitRanges
+from judgeopt.planners.generator import AmortizedPlanner, Generator
+from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.generator_train import GeneratorTrainConfig, generator_loss, train_generator
 from judgeopt.planners.problem import Problem, ProblemError, load_problem
 from judgeopt.planners.result import constraint_residuals

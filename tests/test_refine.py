@@ -67,7 +67,7 @@ def test_generator_fine_tuning_starts_from_a_copy():
 
 @pytest.mark.slow
 def test_a_round_with_sampled_limits_plans_each_environment_under_its_own(tmp_path):
-    from judgeopt.planners.generator import WIDE_LIMITS
+    from judgeopt.planners.limits import WIDE_LIMITS
 
     problem = load_problem(ROOT / "problems" / "paper_sim.toml")
     cfg = RefineConfig(rounds=1, n=3, judge_epochs=1, chunk=3, limit_ranges=WIDE_LIMITS)

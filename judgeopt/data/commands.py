@@ -11,7 +11,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicHermiteSpline, PchipInterpolator
 
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON, Plan
 
@@ -39,6 +38,8 @@ def random_command(rng: np.random.Generator, y_obj: float, cfg: RandomCommandCon
 
 
 def _draw(rng: np.random.Generator, y_obj: float, cfg: RandomCommandConfig) -> Plan:
+    from scipy.interpolate import CubicHermiteSpline, PchipInterpolator  # here: the config alone stays light
+
     y_end = float(np.clip(y_obj + rng.uniform(*cfg.end_offset), cfg.q0 + 0.05, cfg.y_limits[1]))
     t_end = float(np.clip((y_end - cfg.q0) / rng.uniform(*cfg.mean_speed), 0.3, (cfg.horizon - 1) * cfg.dt))
     tk = np.concatenate([[0.0], np.sort(rng.uniform(0.1, 0.9, cfg.knots)) * t_end, [t_end]])

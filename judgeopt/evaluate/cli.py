@@ -62,7 +62,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.tables import run_table
     from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.planners.cli import limit_ranges_from_args
-    from judgeopt.planners.generator import WIDE_LIMITS
+    from judgeopt.planners.limits import WIDE_LIMITS
     from judgeopt.planners.problem import load_problem
     from judgeopt.planners.result import reassess
     from judgeopt.planners.solve import resolve
@@ -190,7 +190,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     from judgeopt.planners.cli import add_limit_range_arguments
-    from judgeopt.planners.generator import WIDE_LIMITS
+    from judgeopt.planners.limits import WIDE_LIMITS
 
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "

@@ -60,7 +60,7 @@ def parse_limit_set(text: str) -> LimitSet:
 def random_limit_sets(k: int, seed: int, ranges=None) -> list[LimitSet]:
     """k limit sets (q̇_max, f_min, f_max) drawn from `ranges` (default: the wide ranges
     refinement samples), seeded."""
-    from judgeopt.planners.generator import CONDITION_NAMES, WIDE_LIMITS
+    from judgeopt.planners.limits import CONDITION_NAMES, WIDE_LIMITS
 
     if k < 1:
         raise ProblemError(f"--random-limits {k}: need at least one limit set")

@@ -220,7 +220,8 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
 
     from judgeopt.cli import _command_line
     from judgeopt.judge.store import check_compatible, load_judge
-    from judgeopt.planners.generator import CONDITION_NAMES, AmortizedPlanner
+    from judgeopt.planners.generator import AmortizedPlanner
+    from judgeopt.planners.limits import CONDITION_NAMES
     from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
     from judgeopt.planners.solve import resolve
     from judgeopt.planners.store import save_generator
@@ -357,7 +358,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
 
 def add_limit_range_arguments(group, defaults=None) -> None:
     """--qdot-max-range, --f-min-range, --f-max-range LO,HI (default: `defaults`, a LimitRanges)."""
-    from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
+    from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 
     defaults = defaults or LimitRanges()
     for name in CONDITION_NAMES:
@@ -370,7 +371,7 @@ def limit_ranges_from_args(args: argparse.Namespace, defaults=None):
     """The LimitRanges the --*-range options give (the rest from `defaults`)."""
     import dataclasses
 
-    from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
+    from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 
     given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
     return dataclasses.replace(defaults or LimitRanges(), **given)

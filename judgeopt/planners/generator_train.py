@@ -23,7 +23,8 @@ import torch
 import torch.nn.functional as F
 
 from judgeopt.judge.model import Judge
-from judgeopt.planners.generator import Generator, GeneratorConfig, LimitRanges
+from judgeopt.planners.generator import Generator, GeneratorConfig
+from judgeopt.planners.limits import LimitRanges
 from judgeopt.planners.problem import Problem
 
 

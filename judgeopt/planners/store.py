@@ -19,7 +19,8 @@ from typing import Any
 
 from judgeopt import __version__
 from judgeopt.judge.store import model_paths, read_meta, read_weights, write_model
-from judgeopt.planners.generator import CONDITION_NAMES, Generator, GeneratorConfig, LimitRanges
+from judgeopt.planners.generator import Generator, GeneratorConfig
+from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem, ProblemError
 
 FORMAT = "judgeopt-generator"

@@ -11,7 +11,7 @@ from pathlib import Path
 def cmd_refine(args: argparse.Namespace) -> int:
     from judgeopt.judge.store import _atomic_write
     from judgeopt.planners.cli import limit_ranges_from_args, problem_from_args
-    from judgeopt.planners.generator import WIDE_LIMITS
+    from judgeopt.planners.limits import WIDE_LIMITS
     from judgeopt.planners.solve import resolve
     from judgeopt.refine.loop import RefineConfig, install, refine
 
@@ -85,7 +85,7 @@ def plot(figures: list[dict], path: Path) -> Path:
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     from judgeopt.planners.cli import add_limit_range_arguments, add_problem_arguments
-    from judgeopt.planners.generator import WIDE_LIMITS
+    from judgeopt.planners.limits import WIDE_LIMITS
 
     r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",
                        description="Each round plans for --n fresh environments with the current judge, replays "

@@ -30,7 +30,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from judgeopt.judge.store import _atomic_write
-from judgeopt.planners.generator import CONDITION_NAMES, LimitRanges
+from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
 
 
