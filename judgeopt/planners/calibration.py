@@ -22,7 +22,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from judgeopt.judge.store import _atomic_write
-from judgeopt.planners.problem import SECTIONS, Problem, ProblemError
+from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 
 FORMAT, VERSION = "judgeopt-calibration", 1
 LOGIT_CLIP = 12.0  # a judge saturates; beyond this its logit says nothing more
@@ -31,10 +31,6 @@ L2_GRID = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 1000.0)
 
 class CalibrationError(ProblemError):
     """A calibration file that is missing, malformed or from another format."""
-
-
-#: the problem fields a calibrator fitted "over limits" reads as inputs, like the environment
-LIMIT_NAMES = SECTIONS["limits"]
 
 
 def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False) -> str:

@@ -27,12 +27,10 @@ from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
 from judgeopt.planners.dynamics import accelerations
-from judgeopt.planners.problem import SECTIONS, InfeasibleProblemError, Problem, ProblemError
+from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
-
-LIMITS = set(SECTIONS["limits"])  # what with_limits may change
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs
 SCALE_Q, SCALE_V, SCALE_A, SCALE_F = 0.1, 0.5, 5.0, 10.0
@@ -142,8 +140,8 @@ class DirectPlanner:
         """The same compiled solver for a problem that differs only in its position, velocity
         and force limits (they are variable bounds): no rebuild, so re-planning under relaxed
         or sampled limits costs one solve."""
-        same = {k: v for k, v in problem.to_dict().items() if k not in LIMITS}
-        if same != {k: v for k, v in self.problem.to_dict().items() if k not in LIMITS}:
+        same = {k: v for k, v in problem.to_dict().items() if k not in LIMIT_NAMES}
+        if same != {k: v for k, v in self.problem.to_dict().items() if k not in LIMIT_NAMES}:
             raise ProblemError("with_limits: the problems differ in more than their limits; build a new DirectPlanner")
         new = copy.copy(self)
         new.problem = problem

@@ -48,6 +48,8 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "solver": ("p_min", "max_iter", "tol", "pessimism", "trust_region"),
     "models": ("judge", "ensemble", "trust_model", "calibration"),
 }
+#: the position, velocity and force limits (bounds a planner can change without being rebuilt)
+LIMIT_NAMES = SECTIONS["limits"]
 
 
 @dataclass(frozen=True)

@@ -60,9 +60,7 @@ class PlanResult:
     @property
     def verdict(self) -> str | None:
         """"likely" (success_probability >= LIKELY) or "unlikely"; None without a plan."""
-        if self.success_probability is None:
-            return None
-        return "likely" if self.success_probability >= LIKELY else "unlikely"
+        return verdict_of(self.success_probability)
 
     @property
     def max_constraint_violation(self) -> float | None:
@@ -89,17 +87,27 @@ class PlanResult:
         return d
 
 
-def assess(result: PlanResult) -> PlanResult:
-    """Set the probability the tool stands behind and so the verdict: the calibrated one where a
+def stood_behind(predicted: float | None, calibrated: float | None, covers: bool) -> tuple[float | None, str]:
+    """The probability the tool stands behind, and its source: the calibrated one where a
     calibration fitted on replayed outcomes of this planner setting covers the environment (and
     limits), else the judge's own (never checked against outcomes there; a judge is most
     over-confident exactly where a planner maximised it). A calibration map is not trusted
     outside the ranges it was fitted on: it extrapolates its success rate, not the physics."""
-    cal = result.info.get("calibrated_success")
-    if cal is not None and result.info.get("calibration_covers"):
-        result.success_probability, result.probability_source = float(cal), "calibrated"
-    elif result.predicted_success is not None and result.plan is not None:
-        result.success_probability, result.probability_source = float(result.predicted_success), "judge"
+    if calibrated is not None and covers:
+        return float(calibrated), "calibrated"
+    return (None, "") if predicted is None else (float(predicted), "judge")
+
+
+def verdict_of(p: float | None) -> str | None:
+    """"likely" at p >= LIKELY, else "unlikely"; None without a probability."""
+    return None if p is None else "likely" if p >= LIKELY else "unlikely"
+
+
+def assess(result: PlanResult) -> PlanResult:
+    """Set a planned result's success_probability and probability_source (stood_behind)."""
+    if result.plan is not None:
+        result.success_probability, result.probability_source = stood_behind(
+            result.predicted_success, result.info.get("calibrated_success"), bool(result.info.get("calibration_covers")))
     return result
 
 
@@ -107,12 +115,11 @@ def reassess(rows: list[dict]) -> None:
     """`assess` for result rows (PlanResult.to_json dicts), e.g. after calibrate_rows added a
     calibrated probability to plans made before the calibration existed."""
     for r in rows:
-        if r.get("calibrated_success") is not None and r.get("calibration_covers"):
-            r["success_probability"], r["probability_source"] = float(r["calibrated_success"]), "calibrated"
-        elif r.get("predicted_success") is not None and r.get("success_probability") is not None:
-            r["success_probability"], r["probability_source"] = float(r["predicted_success"]), "judge"
-        if r.get("success_probability") is not None:
-            r["verdict"] = "likely" if r["success_probability"] >= LIKELY else "unlikely"
+        if r.get("success_probability") is None:  # no plan (or no judge): nothing to stand behind
+            continue
+        r["success_probability"], r["probability_source"] = stood_behind(
+            r.get("predicted_success"), r.get("calibrated_success"), bool(r.get("calibration_covers")))
+        r["verdict"] = verdict_of(r["success_probability"])
 
 
 def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> PlanResult | None:

@@ -15,11 +15,10 @@ from pathlib import Path
 from typing import Sequence
 
 from judgeopt.judge.model import Judge
-from judgeopt.planners.calibration import LIMIT_NAMES
 from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
-from judgeopt.planners.problem import Problem, ProblemError
+from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
 
 METHODS = ("amortized", "direct", "cem")
