@@ -25,7 +25,7 @@ import numpy as np
 from joblib import Parallel, delayed
 
 from judgeopt.planners.problem import load_problem
-from judgeopt.planners.solve import resolve
+from judgeopt.files import resolve
 
 LIMITS = ("qdot_max", "f_min", "f_max")
 _CACHE: dict = {}

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 
-from judgeopt.planners.batch import plan_many
+from judgeopt.evaluate.batch import plan_many
 from judgeopt.planners.problem import load_problem
-from judgeopt.planners.solve import resolve
+from judgeopt.files import resolve
 
 
 def summarise(rows: list[dict], method: str) -> dict:

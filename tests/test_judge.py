@@ -323,7 +323,8 @@ def test_default_size_judge_at_horizon_30(backend, tmp_path):
 
 # -- command line ----------------------------------------------------------------------------
 def test_cli_train_test_inspect(tmp_path, capsys):
-    from judgeopt.judge.cli import inspect_model, is_model_path, main
+    from judgeopt.cli import main
+    from judgeopt.cli.judge import inspect_model, is_model_path
     train, test = tmp_path / "train.h5", tmp_path / "test.h5"
     save(synthetic(200, seed=1), train)
     save(synthetic(100, seed=2), test)
@@ -349,7 +350,7 @@ def test_cli_train_test_inspect(tmp_path, capsys):
 
 
 def test_cli_errors_are_clear(tmp_path, capsys):
-    from judgeopt.judge.cli import main
+    from judgeopt.cli import main
     m = small_judge(horizon=6)
     save_judge(m, tmp_path / "j")
     data = tmp_path / "d.h5"

@@ -12,23 +12,20 @@ HDF5 file is written (atomically) only when every chunk is done.
 
 from __future__ import annotations
 
-import contextlib
 import json
 import shutil
-import sys
 import tempfile
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Iterator
+from typing import Any
 
 import numpy as np
-from joblib import Parallel, delayed, parallel_config
-from tqdm import tqdm
 
 import judgeopt
 from judgeopt.data.commands import RandomCommandConfig, random_command
 from judgeopt.data.dataset import Dataset, DatasetError, load, save
+from judgeopt.parallel import run_chunks, worker_cache
 from judgeopt.sim.controller import ControllerConfig
 from judgeopt.sim.rollout import RolloutConfig, Simulator
 from judgeopt.sim.scene import SceneConfig
@@ -70,15 +67,11 @@ class CollectionSpec:
         return json.dumps(asdict(self), sort_keys=True, default=str)
 
 
-_SIMULATORS: dict[str, Simulator] = {}
-
-
 def _simulator(spec: CollectionSpec) -> Simulator:
     """One simulator per worker process and configuration (building the scene costs ~0.1 s)."""
-    key = json.dumps([asdict(spec.scene), asdict(spec.controller), asdict(spec.rollout)], sort_keys=True, default=str)
-    if key not in _SIMULATORS:
-        _SIMULATORS[key] = Simulator(spec.scene, spec.controller, spec.rollout)
-    return _SIMULATORS[key]
+    key = json.dumps(["collect", asdict(spec.scene), asdict(spec.controller), asdict(spec.rollout)], sort_keys=True,
+                     default=str)
+    return worker_cache(key, lambda: Simulator(spec.scene, spec.controller, spec.rollout))
 
 
 def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
@@ -123,19 +116,6 @@ def _load_chunk(path: Path) -> dict[str, Any]:
     return out
 
 
-@contextlib.contextmanager
-def _backend(scheduler: str | None, n_jobs: int) -> Iterator[int]:
-    """Local processes, or the workers of a Dask distributed cluster at `scheduler`."""
-    if scheduler is None:
-        with parallel_config(backend="loky", n_jobs=n_jobs):
-            yield n_jobs
-        return
-    from dask.distributed import Client
-
-    with Client(scheduler) as client, parallel_config(backend="dask", n_jobs=-1):
-        yield max(1, sum(client.nthreads().values()))
-
-
 def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: str | None = None,
             chunk_size: int = 25, progress: bool = True, command: str | None = None) -> Dataset:
     """Collect `spec` into the HDF5 file `out` (resuming from `<out>.partial/` if present)."""
@@ -150,13 +130,9 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
     chunks = _chunks(spec.total, chunk_size)
     todo = [k for k in range(len(chunks)) if not (partial / f"chunk_{k:06d}.npz").exists()]
     start = time.perf_counter()
-    with _backend(scheduler, n_jobs), tqdm(total=spec.total, initial=spec.total - sum(len(chunks[k]) for k in todo),
-                                           unit="demo", desc=f"collect {out.name}", disable=not progress,
-                                           file=sys.stderr) as bar:
-        jobs = (delayed(_run_numbered)(spec, k, chunks[k]) for k in todo)
-        for k, result in Parallel(return_as="generator_unordered")(jobs):
-            _save_chunk(partial, k, result)
-            bar.update(len(chunks[k]))
+    run_chunks([(k, run_chunk, (spec, chunks[k])) for k in todo], lambda k, result: _save_chunk(partial, k, result),
+               n_jobs=n_jobs, scheduler=scheduler, progress=progress, desc=f"collect {out.name}", unit="demo",
+               sizes={k: len(chunks[k]) for k in todo}, done=spec.total - sum(len(chunks[k]) for k in todo))
     elapsed = time.perf_counter() - start
     parts = [_load_chunk(partial / f"chunk_{k:06d}.npz") for k in range(len(chunks))]
     errors = [e for p in parts for e in p["errors"]]
@@ -180,7 +156,3 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
     save(ds, out)
     shutil.rmtree(partial)
     return load(out)  # what the file holds, validated
-
-
-def _run_numbered(spec: CollectionSpec, k: int, indices: list[int]) -> tuple[int, dict[str, Any]]:
-    return k, run_chunk(spec, indices)

@@ -26,6 +26,11 @@ class RandomCommandConfig:
     y_limits: tuple[float, float] = (-0.2, 0.4)  # m, paper Table 3
     force: tuple[float, float] = (0.0, 30.0)  # N
     max_speed: float = 1.5  # m/s: splines whose peak exceeds it are redrawn (a UR5 tool's range)
+    # Share of commands whose force stays near one level (uniform in `force`, knots within
+    # +-constant_force_spread of it): independent knots rarely stay below 15 N throughout,
+    # yet light constant pressing is what a planner under a low f_max must judge.
+    constant_force_share: float = 0.0
+    constant_force_spread: float = 1.5  # N
 
 
 def random_command(rng: np.random.Generator, y_obj: float, cfg: RandomCommandConfig = RandomCommandConfig()) -> Plan:
@@ -45,6 +50,9 @@ def _draw(rng: np.random.Generator, y_obj: float, cfg: RandomCommandConfig) -> P
     tk = np.concatenate([[0.0], np.sort(rng.uniform(0.1, 0.9, cfg.knots)) * t_end, [t_end]])
     yk = np.concatenate([[cfg.q0], np.sort(rng.uniform(cfg.q0, y_end, cfg.knots)), [y_end]])
     fk = rng.uniform(*cfg.force, cfg.knots + 2)
+    if cfg.constant_force_share > 0 and rng.uniform() < cfg.constant_force_share:  # no draw at share 0: old data reproduce
+        level = rng.uniform(*cfg.force)
+        fk = np.clip(level + rng.uniform(-cfg.constant_force_spread, cfg.constant_force_spread, fk.size), *cfg.force)
     # monotone slopes inside (no overshoot), at rest at both ends
     slopes = PchipInterpolator(tk, yk).derivative()(tk)
     slopes[0] = slopes[-1] = 0.0

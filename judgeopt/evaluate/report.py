@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from judgeopt.evaluate.tables import Row
-from judgeopt.judge.store import _atomic_write
+from judgeopt.files import atomic_write
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -103,22 +103,18 @@ def markdown(summary: list[dict], title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _atomic_text(path: Path, text: str) -> None:
-    _atomic_write(path, text.encode())
-
-
 def write_report(summary: list[dict], out: Path, name: str, title: str,
                  results: dict[str, list[dict]] | None = None, rows: list[Row] | None = None) -> list[Path]:
     """Markdown, CSV and bar chart; with the per-plan results, also the reliability diagram."""
     out = Path(out)
     md = out / f"{name}.md"
-    _atomic_text(md, markdown(summary, title))
+    atomic_write(md, markdown(summary, title))
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(summary[0]))
     w.writeheader()
     w.writerows(summary)
     csv_path = out / f"{name}.csv"
-    _atomic_text(csv_path, buf.getvalue())
+    atomic_write(csv_path, buf.getvalue())
     files = [md, csv_path, plot(summary, out / f"{name}.png", title)]
     if results is not None and rows is not None:
         files.append(plot_reliability(rows, results, out / f"{name}_reliability.png", title))

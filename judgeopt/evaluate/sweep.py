@@ -37,7 +37,7 @@ def parse_limit_set(text: str) -> LimitSet:
     """`qdot_max=0.6,f_max=18` (limit fields), or a problem file whose limits are taken whole."""
     names = SECTIONS["limits"]
     if text.endswith(".toml"):
-        from judgeopt.planners.solve import resolve
+        from judgeopt.files import resolve
 
         p = load_problem(resolve(text))
         return LimitSet(Path(text).stem, tuple((k, float(getattr(p, k))) for k in names))

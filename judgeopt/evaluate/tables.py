@@ -15,10 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from joblib import Parallel, delayed
 
-from judgeopt.judge.store import _atomic_write
-from judgeopt.planners.batch import _run
+from judgeopt.evaluate.batch import plan_chunk
+from judgeopt.files import atomic_write
+from judgeopt.parallel import run_chunks
 from judgeopt.planners.problem import Problem
 
 Y_RANGE = (0.10, 0.28)  # the paper's Table 4 / 5 object positions
@@ -94,15 +94,13 @@ def environments(problem: Problem, row: Row, n: int, seed: int) -> np.ndarray:
 
 
 def _write_json(path: Path, data) -> None:
-    _atomic_write(path, json.dumps(data).encode())
+    atomic_write(path, json.dumps(data).encode())
 
 
 def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n_jobs: int = -1,
               scheduler: str | None = None, chunk: int = 10, models_dir: str = "models",
               progress: bool = True) -> dict[str, list[dict]]:
     """Every row over n environments; results per row key, resumable from out/partial/."""
-    from judgeopt.data.collect import _backend
-
     partial = Path(out) / "partial"
     # chunks are named by the problem's content too: another problem never reuses them
     tag = hashlib.sha256(json.dumps(problem.to_dict(), sort_keys=True).encode()).hexdigest()[:8]
@@ -123,18 +121,9 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
                 todo.append((path, row, envs[first:first + chunk], first))
     if stale and progress:
         print(f"{stale} cached chunks were planned with other models than there are now: planning them again")
-    if todo:
-        jobs = (delayed(_with_path)(path, problem, row, e, first, seed, models_dir) for path, row, e, first in todo)
-        with _backend(scheduler, n_jobs):
-            it = Parallel(return_as="generator_unordered")(jobs)
-            if progress:
-                from tqdm import tqdm
-
-                it = tqdm(it, total=len(todo), initial=0, desc=f"evaluate ({len(done)} chunks already done)",
-                          unit="chunk")
-            for path, result in it:
-                _write_json(path, result)
-                done[path] = result
+    done.update(run_chunks([(path, _plan_row, (problem, row, e, first, seed, models_dir)) for path, row, e, first in todo],
+                           _write_json, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
+                           desc=f"evaluate ({len(done)} chunks already done)"))
     results: dict[str, list[dict]] = {row.key: [] for row in rows}
     for path, result in done.items():
         results[path.name.rsplit("__", 1)[0]] += result
@@ -153,13 +142,12 @@ def _setting(problem: Problem, row: Row, models_dir: str) -> str | None:
     return choose_models(p, (row.method,), row.judge, None, models_dir).settings((row.method,))[row.method]
 
 
-def _with_path(path: Path, problem: Problem, row: Row, envs: np.ndarray, first: int, seed: int,
-               models_dir: str) -> tuple[Path, list[dict]]:
+def _plan_row(problem: Problem, row: Row, envs: np.ndarray, first: int, seed: int, models_dir: str) -> list[dict]:
     if row.overrides:
         problem = problem.with_overrides(**dict(row.overrides))
     if row.method in SIMULATOR_ROWS:
-        return path, _simulator_rows(problem, row.method, envs, first, seed)
-    return path, _run(problem, (row.method,), models_dir, envs, True, row.judge, first, seed)
+        return _simulator_rows(problem, row.method, envs, first, seed)
+    return plan_chunk(problem, (row.method,), models_dir, envs, True, row.judge, first, seed)
 
 
 #: rows that need no judge: random constraint-satisfying plans, and a search scored by the simulator
@@ -169,12 +157,12 @@ NOJUDGE_PLANS = 8  # random plans per environment in a "nojudge" row
 
 def _simulator_rows(problem: Problem, method: str, envs: np.ndarray, first: int, seed: int) -> list[dict]:
     from judgeopt.evaluate.feasibility import nojudge_rows, search
-    from judgeopt.planners.batch import _simulator
+    from judgeopt.evaluate.batch import simulator
 
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
-        found = (nojudge_rows(problem, env, _simulator(), NOJUDGE_PLANS, seed) if method == "nojudge"
-                 else [search(problem, env, _simulator(), seed)])
+        found = (nojudge_rows(problem, env, simulator(), NOJUDGE_PLANS, seed) if method == "nojudge"
+                 else [search(problem, env, simulator(), seed)])
         rows += [{**r, "env_index": first + i} for r in found]
     return rows

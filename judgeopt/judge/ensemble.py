@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from judgeopt.judge.model import Judge, JudgeError
-from judgeopt.judge.store import _atomic_write, load_judge, save_judge
+from judgeopt.files import atomic_write
+from judgeopt.judge.store import load_judge, save_judge
 
 FORMAT = "judgeopt-judge-ensemble"
 
@@ -97,7 +98,7 @@ def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: st
     """Train (or finish training) the K members; member i: seed + i, its own bootstrap sample."""
     from judgeopt.data.dataset import load
     from judgeopt.judge.evaluate import evaluate_judge
-    from judgeopt.judge.store import sha256_file
+    from judgeopt.files import sha256_file
     from judgeopt.judge.train import TrainConfig, train_judge
 
     out = Path(out)
@@ -122,34 +123,5 @@ def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: st
         members.append({"name": name, "weights_sha256": meta["weights_sha256"], "metrics": meta.get("metrics", {})})
     manifest = {"format": FORMAT, "format_version": 1, "config": asdict(cfg), "members": members,
                 "train_data": str(train_path)}
-    _atomic_write(out / "ensemble.json", (json.dumps(manifest, indent=2) + "\n").encode())
+    atomic_write(out / "ensemble.json", (json.dumps(manifest, indent=2) + "\n").encode())
     return out
-
-
-def cmd_train_ensemble(args) -> int:
-    from judgeopt.planners.solve import resolve
-
-    cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap)
-    out = train_ensemble(resolve(args.train), resolve(args.test) if args.test else None, args.out, cfg,
-                         threads=args.jobs, progress=not args.quiet)
-    meta = json.loads((out / "ensemble.json").read_text())
-    accs = [m["metrics"].get("test_accuracy") for m in meta["members"]]
-    print(f"wrote {out}/ensemble.json ({cfg.k} members; held-out accuracy per member: "
-          + ", ".join("-" if a is None else f"{a:.3f}" for a in accs) + ")")
-    return 0
-
-
-def add_ensemble_command(sub) -> None:
-    e = sub.add_parser("train-ensemble", help="train K judges (seeds, bootstrap samples) for pessimistic planning "
-                       "([models] ensemble, [solver] pessimism)",
-                       description="Resumable: finished members are kept; rerun to complete an interrupted run.")
-    e.add_argument("--train", default="data/train.h5")
-    e.add_argument("--test", default="data/test.h5")
-    e.add_argument("--k", type=int, default=5)
-    e.add_argument("--epochs", type=int, default=20)
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
-    e.add_argument("--jobs", type=int, default=1, help="torch threads")
-    e.add_argument("--out", default="models/judge_ensemble")
-    e.add_argument("--quiet", action="store_true")
-    e.set_defaults(func=cmd_train_ensemble)

@@ -12,14 +12,13 @@ from __future__ import annotations
 import hashlib
 import io
 import json
-import os
-import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
 import torch
 
 from judgeopt import __version__
+from judgeopt.files import atomic_write
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, TrajectoryError
 
 FORMAT = "judgeopt-judge"
@@ -42,29 +41,6 @@ def model_paths(path: str | Path) -> tuple[Path, Path]:
     return p.with_name(p.name + ".pt"), p.with_name(p.name + ".json")
 
 
-def sha256_file(path: str | Path) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def _atomic_write(path: Path, data: bytes) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a shipped model should be readable
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
 def save_judge(model: Judge, path: str | Path, meta: dict[str, Any] | None = None) -> tuple[Path, Path]:
     """Write `<path>.pt` then `<path>.json` (each atomically: temp file + os.replace).
 
@@ -83,9 +59,9 @@ def write_model(model: torch.nn.Module, path: str | Path, record: dict[str, Any]
     buf = io.BytesIO()
     torch.save({k: v.detach().cpu() for k, v in model.state_dict().items()}, buf)
     data = buf.getvalue()
-    _atomic_write(pt, data)
+    atomic_write(pt, data)
     record = {**record, "weights_file": pt.name, "weights_sha256": hashlib.sha256(data).hexdigest()}
-    _atomic_write(js, (json.dumps(record, indent=2, sort_keys=False) + "\n").encode())
+    atomic_write(js, (json.dumps(record, indent=2, sort_keys=False) + "\n").encode())
     return pt, js
 
 

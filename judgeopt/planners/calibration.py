@@ -21,7 +21,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from judgeopt.judge.store import _atomic_write
+from judgeopt.files import atomic_write
 from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 
 FORMAT, VERSION = "judgeopt-calibration", 1
@@ -159,7 +159,7 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
 def save_calibration(path: str | Path, calibrators: dict[str, Calibrator]) -> Path:
     path = Path(path)
     doc = {"format": FORMAT, "version": VERSION, "settings": {k: asdict(c) for k, c in sorted(calibrators.items())}}
-    _atomic_write(path, (json.dumps(doc, indent=1) + "\n").encode())
+    atomic_write(path, (json.dumps(doc, indent=1) + "\n").encode())
     return path
 
 

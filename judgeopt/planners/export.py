@@ -44,6 +44,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from judgeopt.files import REPO
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.trajectory import Plan, PlanError
@@ -51,7 +52,6 @@ from judgeopt.trajectory import Plan, PlanError
 CSV_HEADER = "t [s],q [m],qdot [m/s],f [N]"
 PLAN_FORMAT = "judgeopt-plan"
 PLAN_VERSION = 1
-REPO = Path(__file__).resolve().parents[2]
 #: the fields `read_plan_json` requires (a file without them is not a usable record)
 REQUIRED_FIELDS = ("format_version", "method", "environment", "plan", "problem", "provenance")
 PLAN_FIELDS = ("dt", "t", "q", "qdot", "f")
@@ -91,7 +91,8 @@ def plan_provenance(judge_path: str | Path | None, judge_sha256: str | None,
     """Where a plan came from: models (with hashes), code version and commit, command, time.
     Computed once per run; never fails for lack of git or of a generator."""
     from judgeopt import __version__
-    from judgeopt.judge.store import model_paths, sha256_file
+    from judgeopt.files import sha256_file
+    from judgeopt.judge.store import model_paths
 
     generator = None
     if generator_path is not None:
@@ -171,13 +172,13 @@ def write_json(result: PlanResult, problem: Problem, path: str | Path, provenanc
                step: float = 1e-3) -> Path:
     """One self-contained JSON file for a plan (fields: module docstring), written atomically
     (temporary file, then rename), so a controller polling the path never reads half a plan."""
-    from judgeopt.judge.store import _atomic_write
+    from judgeopt.files import atomic_write
 
     path = Path(path)
     record = plan_record(result, problem, provenance, step)
     # one top-level field per line: `head` shows method, outcome and residuals; arrays stay on one line
     text = "{\n" + ",\n".join(f" {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in record.items())
-    _atomic_write(path, (text + "\n}\n").encode())
+    atomic_write(path, (text + "\n}\n").encode())
     return path
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+from judgeopt.files import resolve
 from judgeopt.judge.model import Judge
 from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
@@ -22,18 +23,6 @@ from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
 
 METHODS = ("amortized", "direct", "cem")
-REPO = Path(__file__).resolve().parents[2]
-
-
-def resolve(path: str | Path, suffixes: Sequence[str] = ("",)) -> Path:
-    """A path as given if it exists, else relative to the source checkout (shipped files)."""
-    p = Path(path)
-    if p.is_absolute() or any(p.with_name(p.name + s).exists() for s in suffixes):
-        return p
-    repo = REPO / p
-    return repo if any(repo.with_name(repo.name + s).exists() for s in suffixes) else p
-
-
 @dataclass(frozen=True)
 class ChosenModels:
     """The model files a problem's planners use and their weights hashes; cheap to find (no
@@ -57,7 +46,8 @@ def choose_models(problem: Problem, methods: Sequence[str], judge: str | Path | 
     """The judge (given or the problem's), the generator (given, or the best match in
     models_dir for these limits and this judge), and the ensemble and trust model the direct
     solve would use."""
-    from judgeopt.judge.store import load_meta, sha256_file
+    from judgeopt.files import sha256_file
+    from judgeopt.judge.store import load_meta
     from judgeopt.planners.store import find_generator, load_generator_meta
 
     jpath = resolve(judge or problem.judge, (".json",))

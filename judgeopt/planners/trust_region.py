@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from judgeopt.judge.store import _atomic_write, sha256_file
+from judgeopt.files import atomic_write
 from judgeopt.planners.problem import ProblemError
 
 FORMAT = "judgeopt-trust-region"
@@ -79,7 +79,7 @@ def save_trust_region(tr: TrustRegion, path: str | Path, meta: dict) -> Path:
     record = {"format": FORMAT, "format_version": 1, **meta, "mean": tr.mean.tolist(), "scale": tr.scale.tolist(),
               "components": tr.components.tolist(), "variances": tr.variances.tolist(), "sigma2": tr.sigma2,
               "quantiles": tr.quantiles}
-    _atomic_write(path, (json.dumps(record) + "\n").encode())
+    atomic_write(path, (json.dumps(record) + "\n").encode())
     return path
 
 
@@ -101,27 +101,3 @@ def load_trust_region(path: str | Path, features: int | None = None) -> TrustReg
         raise TrustRegionError(f"{path}: fitted on {tr.mean.size} features, the problem's plans have {features} "
                                "(another horizon): refit it on matching demonstrations")
     return tr
-
-
-def cmd_fit(args) -> int:
-    from judgeopt.data.dataset import load
-    from judgeopt.planners.solve import resolve
-
-    ds = load(resolve(args.data))
-    ok = ds.commands[ds.labels == 1]
-    tr = fit_trust_region(ok, args.components)
-    path = save_trust_region(tr, args.out, {"data": {"path": str(args.data), "sha256": sha256_file(resolve(args.data)),
-                                                     "successful_demonstrations": int(len(ok))},
-                                            "components_kept": args.components})
-    q = ", ".join(f"{k[1:]} %: {v:.1f}" for k, v in tr.quantiles.items())
-    print(f"wrote {path}: distance quantiles of the successful demonstrations: {q}")
-    return 0
-
-
-def add_trust_region_command(sub) -> None:
-    t = sub.add_parser("fit-trust-region", help="model the successful demonstrations for the direct solve's "
-                       "trust region ([solver] trust_region, [models] trust_model)")
-    t.add_argument("--data", default="data/train.h5")
-    t.add_argument("--components", type=int, default=8)
-    t.add_argument("--out", default="models/trust_region_default")
-    t.set_defaults(func=cmd_fit)

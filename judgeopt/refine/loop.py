@@ -27,9 +27,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from joblib import Parallel, delayed
 
-from judgeopt.judge.store import _atomic_write
+from judgeopt.files import atomic_write
+from judgeopt.parallel import run_chunks
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
 
@@ -68,14 +68,10 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
     label; `limits`: (n, 3) q̇_max, f_min, f_max per environment (None: the problem's)."""
     import torch
 
-    from judgeopt.planners.batch import _WORKERS, _simulator
-    from judgeopt.planners.solve import Planners
+    from judgeopt.evaluate.batch import planners as load_planners, simulator
 
     torch.set_num_threads(1)
-    key = json.dumps(["refine", problem.to_dict(), methods, judge, generator], sort_keys=True)
-    if key not in _WORKERS:
-        _WORKERS[key] = Planners.load(problem, methods, judge=judge, generator=generator)
-    planners, sim = _WORKERS[key], _simulator()
+    planners, sim = load_planners(problem, methods, judge, generator=generator), simulator()
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
@@ -89,10 +85,6 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
                          "success": bool(out.success), "predicted": r.predicted_success,
                          "violation": r.max_constraint_violation})
     return rows
-
-
-def _numbered(path: Path, *args) -> tuple[Path, list[dict]]:
-    return path, _plan_chunk(*args)
 
 
 def _round_envs(problem: Problem, seed: int, k: int, n: int) -> np.ndarray:
@@ -109,8 +101,6 @@ def _round_limits(cfg: RefineConfig, k: int) -> np.ndarray | None:
 
 def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generator: str | None, folder: Path,
                 n_jobs: int, scheduler: str | None, progress: bool) -> list[dict]:
-    from judgeopt.data.collect import _backend
-
     envs = _round_envs(problem, cfg.seed, k, cfg.n)
     limits = _round_limits(cfg, k)
     partial = folder / "partial"
@@ -121,19 +111,11 @@ def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generat
             done += json.loads(path.read_text())
         else:
             todo.append((path, first))
-    if todo:
-        jobs = (delayed(_numbered)(path, problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
-                                   None if limits is None else limits[f:f + cfg.chunk])
-                for path, f in todo)
-        with _backend(scheduler, n_jobs):
-            it = Parallel(return_as="generator_unordered")(jobs)
-            if progress:
-                from tqdm import tqdm
-
-                it = tqdm(it, total=len(todo), desc=f"round {k}: plan and replay", unit="chunk")
-            for path, rows in it:
-                _atomic_write(path, json.dumps(rows).encode())
-                done += rows
+    work = [(path, _plan_chunk, (problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
+                                 None if limits is None else limits[f:f + cfg.chunk])) for path, f in todo]
+    new = run_chunks(work, lambda path, rows: atomic_write(path, json.dumps(rows)), n_jobs=n_jobs,
+                     scheduler=scheduler, progress=progress, desc=f"round {k}: plan and replay")
+    done += [r for rows in new.values() for r in rows]
     return sorted(done, key=lambda r: (r["env_index"], r["method"]))
 
 
@@ -170,7 +152,8 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
     """Run (or resume) the rounds; returns one figure row per round and method."""
     from judgeopt.data.dataset import concatenate, load, save
     from judgeopt.judge.evaluate import evaluate_judge
-    from judgeopt.judge.store import load_judge, save_judge, sha256_file
+    from judgeopt.files import sha256_file
+    from judgeopt.judge.store import load_judge, save_judge
     from judgeopt.judge.train import TrainConfig, train_judge
 
     out = Path(out)
@@ -217,7 +200,7 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
         for f in figs:
             f.update({f"judge_after_{m}": v for m, v in metrics.items()})
         summary = {"round": k, "figures": figs, "judge": judge, "generator": generator}
-        _atomic_write(summary_path, json.dumps(summary, indent=2).encode())
+        atomic_write(summary_path, json.dumps(summary, indent=2).encode())
         figures += figs
     return figures
 
@@ -255,7 +238,7 @@ def install(out: str | Path, name: str, models_dir: str | Path = "models", last:
         pt, js = Path(models_dir) / f"{kind}_{name}.pt", Path(models_dir) / f"{kind}_{name}.json"
         meta = json.loads(Path(src + ".json").read_text())
         meta.update(weights_file=pt.name, installed_from=src)
-        _atomic_write(pt, Path(src + ".pt").read_bytes())
-        _atomic_write(js, (json.dumps(meta, indent=2) + "\n").encode())
+        atomic_write(pt, Path(src + ".pt").read_bytes())
+        atomic_write(js, (json.dumps(meta, indent=2) + "\n").encode())
         copied += [pt, js]
     return copied

@@ -11,11 +11,12 @@ import importlib.metadata
 import math
 import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+
+from judgeopt.files import atomic_write
 
 
 #: Wrist inertia tensors (kg m^2, diagonal in the link frame) replacing example-robot-data's.
@@ -88,7 +89,6 @@ def _write_obj(path: Path, vertices: np.ndarray) -> None:
     from scipy.spatial import ConvexHull
 
     hull = ConvexHull(vertices)
-    centre = vertices.mean(axis=0)
     lines = [f"v {x:.7f} {y:.7f} {z:.7f}" for x, y, z in vertices]
     for simplex, eq in zip(hull.simplices, hull.equations):
         a, b, c = simplex
@@ -96,14 +96,7 @@ def _write_obj(path: Path, vertices: np.ndarray) -> None:
         if np.dot(n, eq[:3]) < 0:  # outward winding
             b, c = c, b
         lines.append(f"f {a + 1} {b + 1} {c + 1}")
-    _atomic_write(path, "\n".join(lines) + "\n")
-
-
-def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-    with os.fdopen(fd, "w") as fh:
-        fh.write(text)
-    os.replace(tmp, path)
+    atomic_write(path, "\n".join(lines) + "\n")
 
 
 def example_robot_data_prefix() -> Path:
@@ -214,5 +207,5 @@ def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None =
     text = src.replace("</robot>", _spatula_xml(g, mesh) + "\n</robot>")
     out = cache / f"ur5_spatula_{hashlib.sha1(text.encode()).hexdigest()[:12]}.urdf"
     if not out.exists():
-        _atomic_write(out, text)
+        atomic_write(out, text)
     return out

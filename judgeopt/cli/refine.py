@@ -9,10 +9,10 @@ from pathlib import Path
 
 
 def cmd_refine(args: argparse.Namespace) -> int:
-    from judgeopt.judge.store import _atomic_write
-    from judgeopt.planners.cli import limit_ranges_from_args, problem_from_args
+    from judgeopt.files import atomic_write
+    from judgeopt.cli.planners import limit_ranges_from_args, problem_from_args
     from judgeopt.planners.limits import WIDE_LIMITS
-    from judgeopt.planners.solve import resolve
+    from judgeopt.files import resolve
     from judgeopt.refine.loop import RefineConfig, install, refine
 
     problem = problem_from_args(args)
@@ -28,12 +28,12 @@ def cmd_refine(args: argparse.Namespace) -> int:
                      out, cfg, test_data=resolve(args.test) if args.test else None, n_jobs=args.jobs,
                      scheduler=args.scheduler, progress=not args.quiet)
     md = markdown(figures)
-    _atomic_write(out / "refine.md", md.encode())
+    atomic_write(out / "refine.md", md.encode())
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=sorted({k for f in figures for k in f}))
     w.writeheader()
     w.writerows(figures)
-    _atomic_write(out / "refine.csv", buf.getvalue().encode())
+    atomic_write(out / "refine.csv", buf.getvalue().encode())
     plot(figures, out / "refine.png")
     print(md)
     print(f"wrote {out / 'refine.md'}, {out / 'refine.csv'}, {out / 'refine.png'}")
@@ -84,7 +84,7 @@ def plot(figures: list[dict], path: Path) -> Path:
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:
-    from judgeopt.planners.cli import add_limit_range_arguments, add_problem_arguments
+    from judgeopt.cli.planners import add_limit_range_arguments, add_problem_arguments
     from judgeopt.planners.limits import WIDE_LIMITS
 
     r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",

@@ -4,74 +4,50 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from judgeopt import __version__
-
-
-class CLIError(Exception):
-    """A user-facing error: printed as one line, exit code 2."""
-
-
-def _floats(text: str) -> tuple[float, ...]:
-    try:
-        return tuple(float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
-
-
-_ARGV: list[str] | None = None  # the arguments `main` was called with (in-process calls: tests, notebooks)
-
-
-def _command_line() -> str:
-    argv = _ARGV if _ARGV is not None else sys.argv[1:]
-    return "judgeopt " + " ".join(shlex.quote(a) for a in argv)
+from judgeopt.cli.common import CLIError, check_range, command_line, floats, set_argv
 
 
 # -- collect ---------------------------------------------------------------------------
 def cmd_collect(args: argparse.Namespace) -> int:
     from judgeopt.data.collect import PAPER_GRID, PAPER_RANGES, CollectionSpec, collect
+    from judgeopt.data.commands import RandomCommandConfig
     from judgeopt.sim.scene import ENV_RANGES
 
     grid = None
     if args.per_env:
         grid = {"y_obj": args.y_obj or PAPER_GRID["y_obj"], "mu": args.mu or PAPER_GRID["mu"]}
-        values = {k: v for k, vs in grid.items() for v in vs}
         for name, vs in grid.items():
-            _check_range(name, vs, ENV_RANGES[name])
+            check_range(name, vs, ENV_RANGES[name])
     elif args.y_obj or args.mu:
         raise CLIError("--y-obj and --mu lists make a grid: give --per-env N with them (or use --y-obj-range/--mu-range)")
     ranges = {"y_obj": tuple(args.y_obj_range or PAPER_RANGES["y_obj"]), "mu": tuple(args.mu_range or PAPER_RANGES["mu"])}
     for name, (lo, hi) in ranges.items():
         if lo > hi:
             raise CLIError(f"--{name.replace('_', '-')}-range: lower bound {lo} is above upper bound {hi}")
-        _check_range(name, (lo, hi), ENV_RANGES[name])
+        check_range(name, (lo, hi), ENV_RANGES[name])
     if args.n <= 0 and not args.per_env:
         raise CLIError("--n must be a positive number of demonstrations")
-    spec = CollectionSpec(seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges)
+    if not 0.0 <= args.constant_force_share <= 1.0:
+        raise CLIError(f"--constant-force-share {args.constant_force_share} is not a share: give a value in [0, 1]")
+    commands = RandomCommandConfig(constant_force_share=args.constant_force_share)
+    spec = CollectionSpec(seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges, commands=commands)
     ds = collect(spec, args.out, n_jobs=args.jobs, scheduler=args.scheduler, chunk_size=args.chunk,
-                 progress=not args.quiet, command=_command_line())
+                 progress=not args.quiet, command=command_line())
     s = ds.summary()
     print(f"wrote {args.out}: {s['n']} demonstrations, success ratio {s['success_ratio']:.3f}, "
           f"{s['errors']} errors")
     return 0
 
 
-def _check_range(name: str, values, allowed: tuple[float, float]) -> None:
-    lo, hi = allowed
-    for v in values:
-        if not (lo <= v <= hi):
-            raise CLIError(f"{name} = {v} is outside the scene's physical range [{lo}, {hi}]")
-
-
-# -- inspect ---------------------------------------------------------------------------
 def cmd_inspect(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
-    from judgeopt.judge.cli import format_model_info, inspect_model, is_model_path
+    from judgeopt.cli.judge import format_model_info, inspect_model, is_model_path
 
     if is_model_path(args.path):
         info = inspect_model(args.path)
@@ -157,7 +133,7 @@ def cmd_import_demos(args: argparse.Namespace) -> int:
         print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
     if ds is None:
         raise CLIError(f"nothing imported from {len(paths)} file(s): every demonstration was bad (reasons above)")
-    ds.meta["command"] = _command_line()
+    ds.meta["command"] = command_line()
     save(ds, args.out)
     print(f"wrote {args.out}: {ds.n} demonstrations from {ds.meta['files_imported']} of {len(paths)} file(s) "
           f"({len(errors)} skipped), success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, "
@@ -178,10 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--n", type=int, default=1000, help="number of demonstrations in random environments")
     c.add_argument("--per-env", type=int, default=0, help="demonstrations per grid environment (makes a grid)")
-    c.add_argument("--y-obj", type=_floats, help="grid values of y_obj (m), comma-separated")
-    c.add_argument("--mu", type=_floats, help="grid values of mu, comma-separated")
+    c.add_argument("--y-obj", type=floats, help="grid values of y_obj (m), comma-separated")
+    c.add_argument("--mu", type=floats, help="grid values of mu, comma-separated")
     c.add_argument("--y-obj-range", type=float, nargs=2, metavar=("LO", "HI"), help="random y_obj range (m)")
     c.add_argument("--mu-range", type=float, nargs=2, metavar=("LO", "HI"), help="random mu range")
+    c.add_argument("--constant-force-share", type=float, default=0.0, metavar="SHARE",
+                   help="share of commands that press at one near-constant force level (default 0: the paper's "
+                   "independent random force knots)")
     c.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")
     c.add_argument("--scheduler", help="address of a Dask distributed scheduler (tcp://host:8786) to run on")
     c.add_argument("--chunk", type=int, default=25, help="demonstrations per work unit (and per resume step)")
@@ -228,22 +207,22 @@ def build_parser() -> argparse.ArgumentParser:
     m.add_argument("--horizon", type=int, default=30, help="planner steps N")
     m.set_defaults(func=cmd_import_demos)
 
-    from judgeopt.judge.cli import add_judge_commands
+    from judgeopt.cli.judge import add_judge_commands
 
     add_judge_commands(sub)
-    from judgeopt.planners.cli import add_planner_commands
+    from judgeopt.cli.planners import add_planner_commands
 
     add_planner_commands(sub)
-    from judgeopt.evaluate.cli import add_evaluate_commands
+    from judgeopt.cli.evaluate import add_evaluate_commands
 
     add_evaluate_commands(sub)
-    from judgeopt.refine.cli import add_refine_commands
+    from judgeopt.cli.refine import add_refine_commands
 
     add_refine_commands(sub)
-    from judgeopt.planners.trust_region import add_trust_region_command
+    from judgeopt.cli.planners import add_trust_region_command
 
     add_trust_region_command(sub)
-    from judgeopt.judge.ensemble import add_ensemble_command
+    from judgeopt.cli.judge import add_ensemble_command
 
     add_ensemble_command(sub)
     return p
@@ -257,8 +236,7 @@ def main(argv: list[str] | None = None) -> int:
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
 
-    global _ARGV
-    _ARGV = list(argv) if argv is not None else sys.argv[1:]
+    set_argv(argv)
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
@@ -269,6 +247,3 @@ def main(argv: list[str] | None = None) -> int:
         print(f"judgeopt {args.command}: interrupted (a collection resumes when rerun)", file=sys.stderr)
         return 130
 
-
-if __name__ == "__main__":
-    sys.exit(main())

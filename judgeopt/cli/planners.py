@@ -11,6 +11,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from judgeopt.cli.common import command_line, value_range
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
@@ -46,7 +47,7 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def problem_from_args(args: argparse.Namespace) -> Problem:
-    from judgeopt.planners.solve import resolve
+    from judgeopt.files import resolve
 
     problem = load_problem(resolve(args.problem))
     values: dict[str, Any] = {k[4:]: v for k, v in vars(args).items() if k.startswith("set_") and v is not None}
@@ -139,11 +140,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
             files.append(write_csv(r.plan, _with_method(args.out, r.method, several)))
         if r.plan is not None and args.save_json:
-            from judgeopt.cli import _command_line
             from judgeopt.planners.export import plan_provenance, write_json
 
             prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"],
-                                   planners.generator_path, _command_line())
+                                   planners.generator_path, command_line())
             files.append(write_json(r, problem, _with_method(args.save_json, r.method, several), prov))
     if args.plot and any(r.plan is not None for r in results):
         from judgeopt.planners.export import plot_plans
@@ -218,12 +218,11 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     import numpy as np
     import torch
 
-    from judgeopt.cli import _command_line
     from judgeopt.judge.store import check_compatible, load_judge
     from judgeopt.planners.generator import AmortizedPlanner
     from judgeopt.planners.limits import CONDITION_NAMES
     from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
-    from judgeopt.planners.solve import resolve
+    from judgeopt.files import resolve
     from judgeopt.planners.store import save_generator
 
     problem = problem_from_args(args)
@@ -243,7 +242,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     loss_judge, pessimistic = judge, None
     if problem.ensemble:  # train against the ensemble's pessimistic score instead of the one judge
         from judgeopt.judge.ensemble import PessimisticJudge, load_ensemble
-        from judgeopt.judge.store import sha256_file
+        from judgeopt.files import sha256_file
 
         members, _ = load_ensemble(resolve(problem.ensemble))
         for m in members:
@@ -277,7 +276,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
                "n_envs": len(res), **({"limits_sampled_from_ranges": True} if ranges is not None else {}),
                "final": history[-1] if history else {}}
     meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            "command": _command_line(),
+            "command": command_line(),
             "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
             "judge": {"path": str(args.judge_model or problem.judge), "weights_sha256": jmeta["weights_sha256"]},
             "metrics": metrics, **({"loss_judge": pessimistic} if pessimistic else {}),
@@ -363,7 +362,7 @@ def add_limit_range_arguments(group, defaults=None) -> None:
     defaults = defaults or LimitRanges()
     for name in CONDITION_NAMES:
         lo, hi = getattr(defaults, name)
-        group.add_argument(f"--{name.replace('_', '-')}-range", dest=f"{name}_range", type=_range, metavar="LO,HI",
+        group.add_argument(f"--{name.replace('_', '-')}-range", dest=f"{name}_range", type=value_range, metavar="LO,HI",
                            help=f"range of {name} (default {lo:g},{hi:g})")
 
 
@@ -377,9 +376,26 @@ def limit_ranges_from_args(args: argparse.Namespace, defaults=None):
     return dataclasses.replace(defaults or LimitRanges(), **given)
 
 
-def _range(text: str) -> tuple[float, float]:
-    try:
-        lo, hi = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not LO,HI (two numbers)") from None
-    return lo, hi
+def cmd_fit_trust_region(args) -> int:
+    from judgeopt.data.dataset import load
+    from judgeopt.files import resolve, sha256_file
+    from judgeopt.planners.trust_region import fit_trust_region, save_trust_region
+
+    ds = load(resolve(args.data))
+    ok = ds.commands[ds.labels == 1]
+    tr = fit_trust_region(ok, args.components)
+    path = save_trust_region(tr, args.out, {"data": {"path": str(args.data), "sha256": sha256_file(resolve(args.data)),
+                                                     "successful_demonstrations": int(len(ok))},
+                                            "components_kept": args.components})
+    q = ", ".join(f"{k[1:]} %: {v:.1f}" for k, v in tr.quantiles.items())
+    print(f"wrote {path}: distance quantiles of the successful demonstrations: {q}")
+    return 0
+
+
+def add_trust_region_command(sub) -> None:
+    t = sub.add_parser("fit-trust-region", help="model the successful demonstrations for the direct solve's "
+                       "trust region ([solver] trust_region, [models] trust_model)")
+    t.add_argument("--data", default="data/train.h5")
+    t.add_argument("--components", type=int, default=8)
+    t.add_argument("--out", default="models/trust_region_default")
+    t.set_defaults(func=cmd_fit_trust_region)

@@ -8,31 +8,30 @@ Each worker process loads the judge, the generator and the simulator once and ke
 from __future__ import annotations
 
 import json
-from typing import Any, Sequence
+from typing import Sequence
 
 import numpy as np
 from joblib import Parallel, delayed
 
+from judgeopt.parallel import backend, worker_cache
 from judgeopt.planners.problem import Problem
 
-_WORKERS: dict[str, Any] = {}
 
-
-def _simulator():
+def simulator():
+    """This process's simulator of the shipped scene."""
     from judgeopt.sim.rollout import Simulator
 
-    if "sim" not in _WORKERS:
-        _WORKERS["sim"] = Simulator()
-    return _WORKERS["sim"]
+    return worker_cache("sim", Simulator)
 
 
-def _planners(problem: Problem, methods: tuple[str, ...], models_dir: str, judge: str | None):
+def planners(problem: Problem, methods: tuple[str, ...], judge: str | None = None, models_dir: str = "models",
+             generator: str | None = None):
+    """This process's planners for the problem and models (loaded once per process)."""
     from judgeopt.planners.solve import Planners
 
-    key = json.dumps([problem.to_dict(), methods, models_dir, judge], sort_keys=True)
-    if key not in _WORKERS:
-        _WORKERS[key] = Planners.load(problem, methods, judge=judge, models_dir=models_dir)
-    return _WORKERS[key]
+    key = json.dumps(["planners", problem.to_dict(), methods, models_dir, judge, generator], sort_keys=True)
+    return worker_cache(key, lambda: Planners.load(problem, methods, judge=judge, generator=generator,
+                                                   models_dir=models_dir))
 
 
 def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simulate: bool) -> list[dict]:
@@ -46,23 +45,24 @@ def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simu
         plan = random_command(np.random.default_rng([seed, first + i]), env["y_obj"])
         r = PlanResult("random", env, plan, None, "sampled", 0.0, constraint_residuals(problem, plan, env))
         if simulate:
-            r.simulated_success = bool(_simulator().run(plan, env["y_obj"], env["mu"]).success)
+            r.simulated_success = bool(simulator().run(plan, env["y_obj"], env["mu"]).success)
         rows.append({**r.to_json(), "env_index": first + i})
     return rows
 
 
-def _run(problem: Problem, methods: tuple[str, ...], models_dir: str, envs: np.ndarray, simulate: bool,
-         judge: str | None = None, first: int = 0, seed: int = 0) -> list[dict]:
+def plan_chunk(problem: Problem, methods: tuple[str, ...], models_dir: str, envs: np.ndarray, simulate: bool,
+               judge: str | None = None, first: int = 0, seed: int = 0) -> list[dict]:
+    """Plan (and replay) each environment: one JSON-style row per (environment, method)."""
     import torch
 
     torch.set_num_threads(1)
     if methods == ("random",):
         return _random_rows(problem, envs, first, seed, simulate)
-    planners = _planners(problem, methods, models_dir, judge)
-    sim = _simulator() if simulate else None
+    loaded = planners(problem, methods, judge, models_dir)
+    sim = simulator() if simulate else None
     rows = []
     for i, e in enumerate(envs):
-        for r in planners.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim):
+        for r in loaded.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim):
             rows.append({**r.to_json(), "env_index": first + i})
     return rows
 
@@ -71,14 +71,12 @@ def plan_many(problem: Problem, envs: np.ndarray, methods: Sequence[str] = ("amo
               simulate: bool = True, n_jobs: int = -1, models_dir: str = "models", chunk: int = 5,
               progress: bool = True, judge: str | None = None) -> list[dict]:
     """One JSON-style row per (environment, method), in environment order."""
-    from judgeopt.data.collect import _backend
-
     envs = np.asarray(envs, dtype=float)
     parts = [envs[i:i + chunk] for i in range(0, len(envs), chunk)]
-    jobs = (delayed(_run)(problem, tuple(methods), models_dir, p, simulate, judge, i * chunk)
+    jobs = (delayed(plan_chunk)(problem, tuple(methods), models_dir, p, simulate, judge, i * chunk)
             for i, p in enumerate(parts))
     out: list[list[dict]] = []
-    with _backend(None, n_jobs):
+    with backend(None, n_jobs):
         it = Parallel(return_as="generator")(jobs)
         if progress:
             from tqdm import tqdm

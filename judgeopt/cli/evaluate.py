@@ -17,7 +17,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.tables import TABLES, run_table
     from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.planners.problem import ProblemError, load_problem
-    from judgeopt.planners.solve import resolve
+    from judgeopt.files import resolve
 
     if args.n < 1:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
@@ -56,16 +56,16 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import csv
     import io
 
-    from judgeopt.evaluate.report import _atomic_text
+    from judgeopt.files import atomic_write
     from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, PLANNERS, markdown_sweep, parse_limit_set, plot_sweep,
                                          random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
     from judgeopt.planners.calibration import calibrate_rows
-    from judgeopt.planners.cli import limit_ranges_from_args
+    from judgeopt.cli.planners import limit_ranges_from_args
     from judgeopt.planners.limits import WIDE_LIMITS
     from judgeopt.planners.problem import load_problem
     from judgeopt.planners.result import reassess
-    from judgeopt.planners.solve import resolve
+    from judgeopt.files import resolve
 
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
     mu = _mu_range(args.mu or "1,3")
@@ -91,8 +91,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
     w.writeheader()
     w.writerows(summary)
-    _atomic_text(out / "sweep.md", md)
-    _atomic_text(out / "sweep.csv", buf.getvalue())
+    atomic_write(out / "sweep.md", md)
+    atomic_write(out / "sweep.csv", buf.getvalue())
     png = plot_sweep(summary, out / "sweep.png", title)
     for note in notes:
         print(f"note: {note}")
@@ -121,7 +121,7 @@ def _mu_range(text: str) -> tuple[float, float]:
 def _calibrators(problem, path: str | None) -> dict:
     """From --calibration, or the problem's file where it exists (none: no calibrated column)."""
     from judgeopt.planners.calibration import load_calibration
-    from judgeopt.planners.solve import resolve
+    from judgeopt.files import resolve
 
     if path is None and not (problem.calibration and resolve(problem.calibration).exists()):
         return {}
@@ -189,7 +189,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
-    from judgeopt.planners.cli import add_limit_range_arguments
+    from judgeopt.cli.planners import add_limit_range_arguments
     from judgeopt.planners.limits import WIDE_LIMITS
 
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",

@@ -1,7 +1,5 @@
 """`judgeopt train-judge`, `judgeopt test-judge` and model inspection.
 
-Wired into the main command line by judgeopt/cli.py through `add_judge_commands`; also
-runnable alone: `python -m judgeopt.judge.cli train-judge ...` (same arguments).
 """
 
 from __future__ import annotations
@@ -10,36 +8,14 @@ import argparse
 import json
 import math
 import os
-import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from judgeopt.cli.common import CLIError, command_line, names, positive
+
 DEFAULT_MODEL = "models/judge_default"
-
-
-def _cli():
-    """judgeopt.cli imported lazily: it imports this module while it builds its parser."""
-    from judgeopt import cli
-    return cli
-
-
-def _names(text: str) -> tuple[str, ...]:
-    names = tuple(n.strip() for n in text.split(",") if n.strip())
-    if not names:
-        raise argparse.ArgumentTypeError(f"expected comma-separated environment variable names, got {text!r}")
-    return names
-
-
-def _positive(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive integer, got {v}")
-    return v
 
 
 def resolve_model(path: str | os.PathLike) -> Path:
@@ -59,14 +35,13 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     import numpy as np
     import torch
 
-    import judgeopt
     from judgeopt.data.dataset import DatasetError, concatenate, load
     from judgeopt.judge.evaluate import evaluate_judge
     from judgeopt.judge.model import JudgeConfig
-    from judgeopt.judge.store import save_judge, sha256_file
+    from judgeopt.files import sha256_file
+    from judgeopt.judge.store import save_judge
     from judgeopt.judge.train import TrainConfig, train_judge, write_history
 
-    CLIError = _cli().CLIError
     out = Path(args.out)
     if out.suffix in (".pt", ".json"):
         out = out.with_suffix("")
@@ -101,7 +76,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
             metrics["test_true_labels"] = evaluate_judge(model, test_ds)
     meta = {
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-        "command": _cli()._command_line(),
+        "command": command_line(),
         "seed": args.seed,
         "invert_labels": bool(args.invert_labels),
         "train_data": {"path": " + ".join(args.train), "sha256": " + ".join(sha256_file(p) for p in args.train),
@@ -246,20 +221,20 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.add_argument("--train", required=True, nargs="+", help="training dataset(s) (HDF5; several are concatenated)")
     t.add_argument("--test", help="held-out test dataset (HDF5), reported every epoch")
     t.add_argument("--out", required=True, help="model path without suffix, e.g. models/judge_default")
-    t.add_argument("--epochs", type=_positive, default=TrainConfig.epochs)
-    t.add_argument("--batch-size", type=_positive, default=TrainConfig.batch_size)
+    t.add_argument("--epochs", type=positive, default=TrainConfig.epochs)
+    t.add_argument("--batch-size", type=positive, default=TrainConfig.batch_size)
     t.add_argument("--lr", type=float, default=TrainConfig.lr, help="peak learning rate (cosine-annealed)")
     t.add_argument("--input-noise", type=float, default=TrainConfig.input_noise,
                    help="training input noise, in normalisation std units")
     t.add_argument("--seed", type=int, default=0)
     t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
-    t.add_argument("--env-names", type=_names, help="environment variables the judge sees (default: all in --train)")
+    t.add_argument("--env-names", type=names, help="environment variables the judge sees (default: all in --train)")
     t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
-    t.add_argument("--lstm-units", type=_positive, default=100)
-    t.add_argument("--fc-units", type=_positive, default=102)
+    t.add_argument("--lstm-units", type=positive, default=100)
+    t.add_argument("--fc-units", type=positive, default=102)
     t.add_argument("--dropout", type=float, default=0.3, help="dropout of the feed-forward layers")
     t.add_argument("--lstm-dropout", type=float, default=0.3, help="dropout between the LSTM layers")
-    t.add_argument("--jobs", type=_positive, help="torch threads (default: all cores)")
+    t.add_argument("--jobs", type=positive, help="torch threads (default: all cores)")
     t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train_judge)
 
@@ -269,30 +244,35 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--model", default=DEFAULT_MODEL, help=f"model path without suffix (default {DEFAULT_MODEL})")
     e.add_argument("--data", required=True, help="dataset (HDF5)")
     e.add_argument("--json", action="store_true", help="print one JSON object")
-    e.add_argument("--jobs", type=_positive, help="torch threads")
+    e.add_argument("--jobs", type=positive, help="torch threads")
     e.set_defaults(func=cmd_test_judge)
 
 
-def main(argv: list[str] | None = None) -> int:
-    """Standalone entry point (the same subcommands plus `inspect-judge`)."""
-    from judgeopt.data.dataset import DatasetError
-    from judgeopt.judge.model import JudgeError
+def cmd_train_ensemble(args) -> int:
+    from judgeopt.files import resolve
+    from judgeopt.judge.ensemble import EnsembleConfig, train_ensemble
 
-    p = argparse.ArgumentParser(prog="judgeopt", description=__doc__)
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    add_judge_commands(sub)
-    i = sub.add_parser("inspect-judge", help="summarise a saved judge")
-    i.add_argument("path")
-    i.add_argument("--json", action="store_true")
-    i.set_defaults(func=lambda a: print(json.dumps(inspect_model(a.path)) if a.json
-                                        else format_model_info(inspect_model(a.path))) or 0)
-    args = p.parse_args(argv)
-    try:
-        return args.func(args)
-    except (_cli().CLIError, DatasetError, JudgeError) as exc:
-        print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+    cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap)
+    out = train_ensemble(resolve(args.train), resolve(args.test) if args.test else None, args.out, cfg,
+                         threads=args.jobs, progress=not args.quiet)
+    meta = json.loads((out / "ensemble.json").read_text())
+    accs = [m["metrics"].get("test_accuracy") for m in meta["members"]]
+    print(f"wrote {out}/ensemble.json ({cfg.k} members; held-out accuracy per member: "
+          + ", ".join("-" if a is None else f"{a:.3f}" for a in accs) + ")")
+    return 0
 
 
-if __name__ == "__main__":
-    sys.exit(main())
+def add_ensemble_command(sub) -> None:
+    e = sub.add_parser("train-ensemble", help="train K judges (seeds, bootstrap samples) for pessimistic planning "
+                       "([models] ensemble, [solver] pessimism)",
+                       description="Resumable: finished members are kept; rerun to complete an interrupted run.")
+    e.add_argument("--train", default="data/train.h5")
+    e.add_argument("--test", default="data/test.h5")
+    e.add_argument("--k", type=int, default=5)
+    e.add_argument("--epochs", type=int, default=20)
+    e.add_argument("--seed", type=int, default=0)
+    e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
+    e.add_argument("--jobs", type=int, default=1, help="torch threads")
+    e.add_argument("--out", default="models/judge_ensemble")
+    e.add_argument("--quiet", action="store_true")
+    e.set_defaults(func=cmd_train_ensemble)

@@ -1,0 +1,52 @@
+"""Writing files so that nothing already written is lost, hashing them, and finding shipped ones.
+
+Every file judgeopt writes goes through `atomic_write`: a reader (or a crash) sees the old file
+or the new one, never half of one.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+from typing import Sequence
+
+#: the source checkout, where the shipped problems and models live
+REPO = Path(__file__).resolve().parents[1]
+
+
+def atomic_write(path: str | Path, data: bytes | str) -> None:
+    """Write `data` (text is UTF-8 encoded) to `path` through a temporary file and a rename."""
+    path = Path(path)
+    if isinstance(data, str):
+        data = data.encode()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a shipped model should be readable
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def sha256_file(path: str | Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def resolve(path: str | Path, suffixes: Sequence[str] = ("",)) -> Path:
+    """A path as given if it exists, else relative to the source checkout (shipped files)."""
+    p = Path(path)
+    if p.is_absolute() or any(p.with_name(p.name + s).exists() for s in suffixes):
+        return p
+    repo = REPO / p
+    return repo if any(repo.with_name(repo.name + s).exists() for s in suffixes) else p

@@ -1,0 +1,60 @@
+"""The tasks judgeopt can plan for, by name.
+
+Built-in tasks are listed in `BUILTIN`; a package of your own can add tasks through the
+`judgeopt.tasks` entry-point group (`name = "mypkg.mytask:MyTask"`) or `register_task`.
+Tasks load lazily: naming one imports only its own module.
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import entry_points
+from typing import Callable
+
+from judgeopt.tasks.base import Channel, EnvironmentRangeError, EnvVar, Outcome, Task, TaskError, TaskSimulator
+
+__all__ = ["BUILTIN", "Channel", "EnvVar", "EnvironmentRangeError", "Outcome", "Task", "TaskError",
+           "TaskSimulator", "get_task", "register_task", "task_names"]
+
+#: name -> "module:class"
+BUILTIN = {"scoop": "judgeopt.tasks.scoop:ScoopTask"}
+DEFAULT_TASK = "scoop"
+
+_REGISTERED: dict[str, Callable[[], Task]] = {}
+_LOADED: dict[str, Task] = {}
+
+
+def register_task(name: str, factory: Callable[[], Task]) -> None:
+    """Make `factory()` the task called `name` (in this process)."""
+    _REGISTERED[name] = factory
+    _LOADED.pop(name, None)
+
+
+def _sources() -> dict[str, str | Callable[[], Task]]:
+    found: dict[str, str | Callable[[], Task]] = dict(BUILTIN)
+    for ep in entry_points(group="judgeopt.tasks"):
+        found.setdefault(ep.name, ep.value)
+    found.update(_REGISTERED)
+    return found
+
+
+def task_names() -> list[str]:
+    return sorted(_sources())
+
+
+def get_task(name: str) -> Task:
+    """The task called `name`; a one-line error naming the known ones otherwise."""
+    if name in _LOADED:
+        return _LOADED[name]
+    sources = _sources()
+    if name not in sources:
+        raise TaskError(f"unknown task {name!r}: known tasks are {', '.join(sorted(sources))} "
+                        "(`judgeopt tasks` lists them)")
+    src = sources[name]
+    if isinstance(src, str):
+        module, _, cls = src.partition(":")
+        task = getattr(importlib.import_module(module), cls)()
+    else:
+        task = src()
+    _LOADED[name] = task
+    return task
