@@ -10,7 +10,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 def sim():
     """One simulator for the whole session: building the scene costs a fraction of a second,
     and rollouts are independent of each other (tested)."""
-    from judgeopt.sim.rollout import Simulator
+    from judgeopt.tasks.scoop.rollout import Simulator
 
     s = Simulator()
     yield s

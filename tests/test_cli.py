@@ -40,9 +40,13 @@ def test_inspect_prints_a_summary(tiny, capsys):
     "argv, message",
     [
         (["inspect", "nope.h5"], "no such file"),
-        (["collect", "--out", "x.h5", "--mu-range", "3", "1"], "lower bound 3.0 is above upper bound 1.0"),
-        (["collect", "--out", "x.h5", "--y-obj-range", "0.1", "0.9"], "y_obj = 0.9 is outside"),
-        (["collect", "--out", "x.h5", "--mu", "1,2"], "give --per-env"),
+        (["collect", "--out", "x.h5", "--range", "mu=3,1"], "lower bound 3.0 is above upper bound 1.0"),
+        (["collect", "--out", "x.h5", "--range", "y_obj=0.1,0.9"], "y_obj = 0.9 is outside"),
+        (["collect", "--out", "x.h5", "--grid", "mu=1,2"], "give --per-env"),
+        (["collect", "--out", "x.h5", "--range", "zeta=1,2"], "zeta: not an environment variable of task 'scoop'"),
+        (["collect", "--out", "x.h5", "--task", "wipe"], "unknown task 'wipe': known tasks are scoop"),
+        (["collect", "--out", "x.h5", "--set", "commands.nope=1"], "no setting 'nope'"),
+        (["collect", "--out", "x.h5", "--set", "commands.constant_force_share=lots"], "expected a value like 0.0"),
         (["collect", "--out", "x.h5", "--n", "0"], "--n must be a positive"),
     ],
 )

@@ -9,7 +9,7 @@ import pytest
 
 from judgeopt.data import dataset as D
 from judgeopt.data.collect import CollectionSpec, _chunks, _save_chunk, collect, run_chunk
-from judgeopt.data.commands import RandomCommandConfig, random_command
+from judgeopt.tasks.scoop.commands import RandomCommandConfig, random_command
 
 
 def test_random_commands_are_seeded_and_plausible():
@@ -82,7 +82,8 @@ def test_collection_writes_a_complete_documented_file(reference, tmp_path):
     assert list(reference.index) == list(range(6))
     m = reference.meta
     assert m["seed"] == 11 and m["source"] == "simulation" and m["package_version"]
-    assert m["simulator"]["controller"]["selection"] == [1.0, 1.0, 0.1, 1.0, 1.0, 1.0]
+    assert reference.task == "scoop" and reference.channels == ("y", "ydot", "f")
+    assert m["settings"]["controller"]["selection"] == [1.0, 1.0, 0.1, 1.0, 1.0, 1.0]
     assert m["generator"]["ranges"]["mu"] == [1.0, 3.0]
     assert ((0.10 <= reference.env[:, 0]) & (reference.env[:, 0] <= 0.28)).all()
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from conftest import min_jerk_plan
-from judgeopt.sim.rollout import RolloutConfig
-from judgeopt.sim.scene import EnvironmentRangeError
+from judgeopt.tasks.scoop.rollout import RolloutConfig
+from judgeopt.tasks.scoop.scene import EnvironmentRangeError
 from judgeopt.trajectory import Plan, PlanError
 
 

@@ -7,7 +7,7 @@ import pytest
 
 from judgeopt.sim._quiet import pb
 from judgeopt.sim.controller import TaskCommand
-from judgeopt.sim.scene import ENV_RANGES, EnvironmentRangeError, check_environment
+from judgeopt.tasks.scoop.scene import ENV_RANGES, EnvironmentRangeError, check_environment
 
 G = 9.81
 
@@ -101,7 +101,7 @@ def test_plant_mass_matrix_is_the_controllers(plant, wrists, agree):
     documented model-error option must really differ (else this check could not fail)."""
     import pinocchio as pin
 
-    from judgeopt.sim.scene import Scene, SceneConfig
+    from judgeopt.tasks.scoop.scene import Scene, SceneConfig
 
     sc = Scene(SceneConfig(plant_inertia=plant, wrist_inertia=wrists))
     try:
@@ -134,7 +134,7 @@ def test_wrist_inertias_are_physically_plausible(sim):
 
 
 def test_bad_scene_inertia_option_is_named():
-    from judgeopt.sim.scene import Scene, SceneConfig
+    from judgeopt.tasks.scoop.scene import Scene, SceneConfig
 
     with pytest.raises(ValueError, match="plant_inertia"):
         Scene(SceneConfig(plant_inertia="meshes"))

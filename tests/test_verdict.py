@@ -14,7 +14,10 @@ from judgeopt.planners import result as result_module
 from judgeopt.planners import suggest as suggest_module
 from judgeopt.planners.problem import load_problem
 from judgeopt.planners.result import LIKELY, PlanResult, assess
-from judgeopt.planners.suggest import RELAXATIONS, suggest
+from judgeopt.planners.suggest import relaxations, suggest
+from judgeopt.tasks import get_task
+
+RELAXATIONS = relaxations(get_task("scoop"))
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -41,6 +41,22 @@ def value_range(text: str) -> tuple[float, float]:
     return lo, hi
 
 
+def env_values(text: str) -> tuple[str, tuple[float, ...]]:
+    """NAME=V1,V2,..."""
+    name, sep, values = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=V1,V2,..., got {text!r}")
+    return name.strip(), floats(values)
+
+
+def env_range(text: str) -> tuple[str, tuple[float, float]]:
+    """NAME=LO,HI"""
+    name, sep, values = text.partition("=")
+    if not sep or not name:
+        raise argparse.ArgumentTypeError(f"expected NAME=LO,HI, got {text!r}")
+    return name.strip(), value_range(values)
+
+
 def names(text: str) -> tuple[str, ...]:
     out = tuple(n.strip() for n in text.split(",") if n.strip())
     if not out:

@@ -105,7 +105,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def _mu_range(text: str) -> tuple[float, float]:
     from judgeopt.planners.problem import ProblemError
-    from judgeopt.sim.scene import ENV_RANGES
+    from judgeopt.tasks.scoop.scene import ENV_RANGES
 
     try:
         lo, hi = (float(v) for v in text.split(","))

@@ -15,7 +15,9 @@ from typing import Any
 
 from judgeopt.cli.common import CLIError, command_line, names, positive
 
-DEFAULT_MODEL = "models/judge_default"
+from judgeopt.tasks import DEFAULT_TASK, get_task
+
+DEFAULT_MODEL = get_task(DEFAULT_TASK).default_judge
 
 
 def resolve_model(path: str | os.PathLike) -> Path:
@@ -56,11 +58,14 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     missing = [n for n in env_names if n not in train_ds.env_names]
     if missing:
         raise CLIError(f"--env-names {','.join(missing)}: not in {' '.join(args.train)} (it has {','.join(train_ds.env_names)})")
-    if test_ds is not None and (test_ds.horizon != train_ds.horizon or test_ds.dt != train_ds.dt):
-        raise CLIError(f"{args.test} (N = {test_ds.horizon}, dt = {test_ds.dt}) does not match "
-                       f"{' '.join(args.train)} (N = {train_ds.horizon}, dt = {train_ds.dt})")
+    if test_ds is not None and (test_ds.horizon, test_ds.dt, test_ds.task, test_ds.channels) != (
+            train_ds.horizon, train_ds.dt, train_ds.task, train_ds.channels):
+        raise CLIError(f"{args.test} (task {test_ds.task}, channels {','.join(test_ds.channels)}, N = {test_ds.horizon}, "
+                       f"dt = {test_ds.dt}) does not match {' '.join(args.train)} (task {train_ds.task}, channels "
+                       f"{','.join(train_ds.channels)}, N = {train_ds.horizon}, dt = {train_ds.dt})")
     config = JudgeConfig(lstm_units=args.lstm_units, fc_units=args.fc_units, dropout=args.dropout,
-                         lstm_dropout=args.lstm_dropout, env_names=env_names, horizon=train_ds.horizon, dt=train_ds.dt)
+                         lstm_dropout=args.lstm_dropout, env_names=env_names, horizon=train_ds.horizon, dt=train_ds.dt,
+                         channels=train_ds.channels, units=train_ds.units or dict(JudgeConfig().units))
     tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
                      input_noise=args.input_noise,
                      invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.jobs,
@@ -78,6 +83,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "command": command_line(),
         "seed": args.seed,
+        "task": train_ds.task,
         "invert_labels": bool(args.invert_labels),
         "train_data": {"path": " + ".join(args.train), "sha256": " + ".join(sha256_file(p) for p in args.train),
                        "n": train_ds.n, "success_ratio": train_ds.success_ratio(),

@@ -10,38 +10,68 @@ from pathlib import Path
 import numpy as np
 
 from judgeopt import __version__
-from judgeopt.cli.common import CLIError, check_range, command_line, floats, set_argv
+from judgeopt.cli.common import CLIError, check_range, command_line, env_range, env_values, set_argv
+from judgeopt.tasks import DEFAULT_TASK
 
 
 # -- collect ---------------------------------------------------------------------------
 def cmd_collect(args: argparse.Namespace) -> int:
-    from judgeopt.data.collect import PAPER_GRID, PAPER_RANGES, CollectionSpec, collect
-    from judgeopt.data.commands import RandomCommandConfig
-    from judgeopt.sim.scene import ENV_RANGES
+    from judgeopt.data.collect import CollectionSpec, collect
+    from judgeopt.tasks import get_task
+    from judgeopt.tasks.base import with_setting
 
+    task = get_task(args.task)
+    physical = task.env_ranges("physical")
+    given = {**dict(args.grid or []), **dict(args.range or [])}
+    unknown = [k for k in given if k not in task.env_names]
+    if unknown:
+        raise CLIError(f"{', '.join(unknown)}: not an environment variable of task {task.name!r} "
+                       f"(it has {', '.join(task.env_names)})")
     grid = None
     if args.per_env:
-        grid = {"y_obj": args.y_obj or PAPER_GRID["y_obj"], "mu": args.mu or PAPER_GRID["mu"]}
+        if task.demo_grid is None and not args.grid:
+            raise CLIError(f"task {task.name!r} has no default grid: give --grid NAME=V1,V2,... for each of "
+                           f"{', '.join(task.env_names)}")
+        grid = {**(task.demo_grid or {}), **dict(args.grid or [])}
         for name, vs in grid.items():
-            check_range(name, vs, ENV_RANGES[name])
-    elif args.y_obj or args.mu:
-        raise CLIError("--y-obj and --mu lists make a grid: give --per-env N with them (or use --y-obj-range/--mu-range)")
-    ranges = {"y_obj": tuple(args.y_obj_range or PAPER_RANGES["y_obj"]), "mu": tuple(args.mu_range or PAPER_RANGES["mu"])}
+            check_range(name, vs, physical[name])
+    elif args.grid:
+        raise CLIError("--grid makes a grid: give --per-env N with it (or use --range NAME=LO,HI)")
+    ranges = {**task.env_ranges(), **{k: v for k, v in dict(args.range or []).items()}}
     for name, (lo, hi) in ranges.items():
         if lo > hi:
-            raise CLIError(f"--{name.replace('_', '-')}-range: lower bound {lo} is above upper bound {hi}")
-        check_range(name, (lo, hi), ENV_RANGES[name])
+            raise CLIError(f"--range {name}: lower bound {lo} is above upper bound {hi}")
+        check_range(name, (lo, hi), physical[name])
     if args.n <= 0 and not args.per_env:
         raise CLIError("--n must be a positive number of demonstrations")
-    if not 0.0 <= args.constant_force_share <= 1.0:
-        raise CLIError(f"--constant-force-share {args.constant_force_share} is not a share: give a value in [0, 1]")
-    commands = RandomCommandConfig(constant_force_share=args.constant_force_share)
-    spec = CollectionSpec(seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges, commands=commands)
+    settings = task.settings()
+    for item in args.set or []:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise CLIError(f"--set {item!r}: give KEY=VALUE, e.g. commands.constant_force_share=0.4")
+        settings = with_setting(settings, key, value)
+    spec = CollectionSpec(task=task.name, seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges,
+                          settings=settings)
     ds = collect(spec, args.out, n_jobs=args.jobs, scheduler=args.scheduler, chunk_size=args.chunk,
                  progress=not args.quiet, command=command_line())
     s = ds.summary()
     print(f"wrote {args.out}: {s['n']} demonstrations, success ratio {s['success_ratio']:.3f}, "
           f"{s['errors']} errors")
+    return 0
+
+
+def cmd_tasks(args: argparse.Namespace) -> int:
+    from judgeopt.tasks import get_task, task_names
+
+    tasks = [get_task(n).describe() for n in task_names()]
+    if args.json:
+        print(json.dumps(tasks))
+        return 0
+    for t in tasks:
+        channels = ", ".join(f"{c['name']} [{c['unit'] or '-'}]" for c in t["channels"])
+        env = ", ".join(f"{v['name']} in [{v['physical'][0]:g}, {v['physical'][1]:g}]" for v in t["environment"])
+        print(f"{t['name']}: {t['description']}\n  channels: {channels}\n  environment: {env}\n"
+              f"  horizon: {t['horizon']} steps of {t['dt']:g} s")
     return 0
 
 
@@ -76,11 +106,11 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 # -- render ----------------------------------------------------------------------------
 def cmd_render(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
-    from judgeopt.sim.render import render_rollout
-    from judgeopt.sim.rollout import Simulator
+    from judgeopt.tasks import get_task
     from judgeopt.trajectory import Plan
 
     ds = load(args.data)
+    task = get_task(ds.task)
     out = Path(args.out)
     picks: list[int] = []
     for label, count in ((1, args.successes), (0, args.failures)):
@@ -89,14 +119,14 @@ def cmd_render(args: argparse.Namespace) -> int:
         picks = list(args.index)
     if not picks:
         raise CLIError(f"{args.data} has no demonstrations of the requested kind")
-    sim = Simulator()
+    sim = task.simulator()
     for i in picks:
         if not 0 <= i < ds.n:
             raise CLIError(f"--index {i} is out of range: {args.data} holds {ds.n} demonstrations")
-        y_obj, mu = (float(v) for v in ds.env[i])
+        env = dict(zip(ds.env_names, map(float, ds.env[i])))
         plan = Plan.from_array(ds.dt, ds.commands[i])
         name = out / f"demo_{int(ds.index[i]):05d}_{'success' if ds.labels[i] else 'failure'}.gif"
-        r = render_rollout(sim, plan, y_obj, mu, name, caption=f"demo {int(ds.index[i])}")
+        r = task.render(plan, env, name, caption=f"demo {int(ds.index[i])}", simulator=sim)
         agree = "" if r.success == bool(ds.labels[i]) else "  (label in file differs: simulator settings changed?)"
         print(f"{name}: {'success' if r.success else 'failure'}{agree}")
     return 0
@@ -154,18 +184,24 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--n", type=int, default=1000, help="number of demonstrations in random environments")
     c.add_argument("--per-env", type=int, default=0, help="demonstrations per grid environment (makes a grid)")
-    c.add_argument("--y-obj", type=floats, help="grid values of y_obj (m), comma-separated")
-    c.add_argument("--mu", type=floats, help="grid values of mu, comma-separated")
-    c.add_argument("--y-obj-range", type=float, nargs=2, metavar=("LO", "HI"), help="random y_obj range (m)")
-    c.add_argument("--mu-range", type=float, nargs=2, metavar=("LO", "HI"), help="random mu range")
-    c.add_argument("--constant-force-share", type=float, default=0.0, metavar="SHARE",
-                   help="share of commands that press at one near-constant force level (default 0: the paper's "
-                   "independent random force knots)")
+    c.add_argument("--task", default=DEFAULT_TASK, help=f"the task to collect (default {DEFAULT_TASK}; `judgeopt tasks`)")
+    c.add_argument("--grid", type=env_values, action="append", metavar="NAME=V1,V2,...",
+                   help="grid values of one environment variable (with --per-env; default: the task's grid)")
+    c.add_argument("--range", type=env_range, action="append", metavar="NAME=LO,HI",
+                   help="range of one environment variable for --n random environments (default: the task's)")
+    c.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="one of the task's settings, e.g. commands.constant_force_share=0.4 (the scoop: share of "
+                   "commands pressing at one near-constant force)")
     c.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")
     c.add_argument("--scheduler", help="address of a Dask distributed scheduler (tcp://host:8786) to run on")
     c.add_argument("--chunk", type=int, default=25, help="demonstrations per work unit (and per resume step)")
     c.add_argument("--quiet", action="store_true", help="no progress bar")
     c.set_defaults(func=cmd_collect)
+
+    k = sub.add_parser("tasks", help="list the tasks judgeopt can plan for",
+                       description="Each task's channels (name, unit, kind), environment variables and horizon.")
+    k.add_argument("--json", action="store_true", help="print a JSON list of objects (name, channels, env_names, ...)")
+    k.set_defaults(func=cmd_tasks)
 
     i = sub.add_parser("inspect", help="summarise a dataset or model file",
                        description="Dataset: counts, success ratios, metadata. Model (.pt/.json or its stem): "
@@ -232,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
     from judgeopt.data.dataset import DatasetError
     from judgeopt.judge.model import JudgeError
     from judgeopt.planners.problem import ProblemError
-    from judgeopt.sim.scene import EnvironmentRangeError
+    from judgeopt.tasks.base import EnvironmentRangeError, TaskError
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
 
@@ -240,7 +276,8 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (CLIError, DatasetError, JudgeError, PlanError, ProblemError, EnvironmentRangeError, RobotDescriptionError) as exc:
+    except (CLIError, DatasetError, JudgeError, PlanError, ProblemError, EnvironmentRangeError, RobotDescriptionError,
+            TaskError) as exc:
         print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

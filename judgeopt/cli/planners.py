@@ -119,9 +119,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
                            "--calibration out")
     sim = None
     if args.simulate:
-        from judgeopt.sim.rollout import Simulator
+        from judgeopt.tasks import get_task
 
-        sim = Simulator()
+        sim = get_task(problem.task).simulator()
     results = planners.solve(env, simulator=sim)
     planned = [r for r in results if r.verdict is not None]
     unlikely = bool(planned) and all(r.verdict == "unlikely" for r in planned)
@@ -171,18 +171,15 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if shown is not None:
             print(f"\n{shown.method} plan (every 5th of {shown.plan.horizon + 1} samples):")
             print(_plan_rows(shown.plan))
-        from judgeopt.sim.rollout import RolloutConfig
+        from judgeopt.tasks import get_task
 
-        rc = RolloutConfig()
+        task = get_task(problem.task)
         for r in results:
             if r.status not in ("solved", "generated"):
                 print(f"{r.method}: {r.message}")
             if r.simulated_success is not None:
-                print(f"{r.method}, simulated: the object rose {100 * r.info['sim_object_rise']:.1f} cm and ended "
-                      f"{100 * r.info['sim_offset_from_blade']:.1f} cm from the blade centre, "
-                      f"{'on' if r.info['sim_on_blade'] else 'off'} the blade "
-                      f"(success: rise >= {100 * rc.success_rise:g} cm, on the blade, off the plate, "
-                      f"within {100 * rc.max_overhang:g} cm)")
+                details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
+                print(f"{r.method}, simulated: {task.explain(details)}")
         if any(r.probability_source == "judge" for r in results):
             print("note: a 'judge' success p is the judge's own score of the plan, not checked against replayed "
                   "outcomes of this planner setting (fit a calibration with `judgeopt calibrate`)")
@@ -235,7 +232,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
         raise ProblemError(f"--{next(iter(given)).replace('_', '-')}-range needs --conditioned")
     jpath = resolve(args.judge_model or problem.judge, (".json",))
     judge, jmeta = load_judge(jpath)
-    check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+    check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
     torch.set_num_threads(args.jobs or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
                               threads=args.jobs, progress=not args.quiet)
@@ -246,7 +243,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
 
         members, _ = load_ensemble(resolve(problem.ensemble))
         for m in members:
-            check_compatible(m.config, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+            check_compatible(m.config, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         loss_judge = PessimisticJudge(members, problem.pessimism)
         pessimistic = {"ensemble": problem.ensemble, "pessimism": problem.pessimism,
                        "manifest_sha256": sha256_file(resolve(problem.ensemble) / "ensemble.json")}

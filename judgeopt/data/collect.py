@@ -12,86 +12,91 @@ HDF5 file is written (atomically) only when every chunk is done.
 
 from __future__ import annotations
 
+import itertools
 import json
 import shutil
 import tempfile
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 import judgeopt
-from judgeopt.data.commands import RandomCommandConfig, random_command
 from judgeopt.data.dataset import Dataset, DatasetError, load, save
 from judgeopt.parallel import run_chunks, worker_cache
-from judgeopt.sim.controller import ControllerConfig
-from judgeopt.sim.rollout import RolloutConfig, Simulator
-from judgeopt.sim.scene import SceneConfig
+from judgeopt.tasks import DEFAULT_TASK, get_task
 from judgeopt.trajectory import PlanError
-
-ENV_NAMES = ("y_obj", "mu")
-PAPER_GRID = {"y_obj": (0.10, 0.19, 0.28), "mu": (1.0, 2.0, 3.0)}
-PAPER_RANGES = {"y_obj": (0.10, 0.28), "mu": (1.0, 3.0)}
 
 
 @dataclass(frozen=True)
 class CollectionSpec:
-    """What to collect. `grid` given: `per_env` demonstrations at each grid point (product of
-    the value lists); otherwise `n` demonstrations with environments uniform in `ranges`."""
+    """What to collect for `task`. `grid` given: `per_env` demonstrations at each grid point
+    (product of the value lists); otherwise `n` demonstrations with environments uniform in
+    `ranges` (default: the task's sampled ranges). `settings`: the task's own settings
+    (default: its shipped ones)."""
 
+    task: str = DEFAULT_TASK
     seed: int = 0
     n: int = 1000
     grid: dict[str, tuple[float, ...]] | None = None
     per_env: int = 0
-    ranges: dict[str, tuple[float, float]] = field(default_factory=lambda: dict(PAPER_RANGES))
-    commands: RandomCommandConfig = field(default_factory=RandomCommandConfig)
-    scene: SceneConfig = field(default_factory=SceneConfig)
-    controller: ControllerConfig = field(default_factory=ControllerConfig)
-    rollout: RolloutConfig = field(default_factory=RolloutConfig)
+    ranges: dict[str, tuple[float, float]] | None = None
+    settings: Any = None
+
+    def __post_init__(self) -> None:
+        task = get_task(self.task)
+        if self.ranges is None:
+            object.__setattr__(self, "ranges", task.env_ranges())
+        if self.settings is None:
+            object.__setattr__(self, "settings", task.settings())
+
+    @property
+    def env_names(self) -> tuple[str, ...]:
+        return get_task(self.task).env_names
 
     @property
     def total(self) -> int:
         if self.grid is None:
             return self.n
-        return self.per_env * int(np.prod([len(self.grid[k]) for k in ENV_NAMES]))
+        return self.per_env * int(np.prod([len(self.grid[k]) for k in self.env_names]))
 
-    def environment(self, i: int, rng: np.random.Generator) -> tuple[float, float]:
+    def environment(self, i: int, rng: np.random.Generator) -> dict[str, float]:
         if self.grid is not None:
-            points = [(y, m) for y in self.grid["y_obj"] for m in self.grid["mu"]]
-            return points[i // self.per_env]
-        return tuple(float(rng.uniform(*self.ranges[k])) for k in ENV_NAMES)  # type: ignore[return-value]
+            points = list(itertools.product(*(self.grid[k] for k in self.env_names)))
+            return dict(zip(self.env_names, map(float, points[i // self.per_env])))
+        return {k: float(rng.uniform(*self.ranges[k])) for k in self.env_names}
 
     def fingerprint(self) -> str:
         return json.dumps(asdict(self), sort_keys=True, default=str)
 
 
-def _simulator(spec: CollectionSpec) -> Simulator:
-    """One simulator per worker process and configuration (building the scene costs ~0.1 s)."""
-    key = json.dumps(["collect", asdict(spec.scene), asdict(spec.controller), asdict(spec.rollout)], sort_keys=True,
-                     default=str)
-    return worker_cache(key, lambda: Simulator(spec.scene, spec.controller, spec.rollout))
+def _simulator(spec: CollectionSpec):
+    """One simulator per worker process, task and settings (building a scene costs ~0.1 s)."""
+    key = json.dumps(["collect", spec.task, asdict(spec.settings) if spec.settings is not None else None],
+                     sort_keys=True, default=str)
+    return worker_cache(key, lambda: get_task(spec.task).simulator(spec.settings))
 
 
 def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
     """Run demonstrations `indices`; bad commands or environments are recorded, not raised."""
-    sim = _simulator(spec)
+    task, sim = get_task(spec.task), _simulator(spec)
     rows: dict[str, list] = {"commands": [], "responses": [], "labels": [], "env": [], "index": []}
     errors = []
     for i in indices:
         rng = np.random.default_rng([spec.seed, i])
-        y_obj, mu = spec.environment(i, rng)
+        env = spec.environment(i, rng)
         try:
-            plan = random_command(rng, y_obj, spec.commands)
-            result = sim.run(plan, y_obj, mu)
+            plan = task.random_command(rng, env, spec.settings)
+            result = sim.simulate(plan, env)
         except (PlanError, ValueError, RuntimeError) as exc:
-            errors.append({"index": i, "y_obj": y_obj, "mu": mu, "error": str(exc)})
+            errors.append({"index": i, **env, "error": str(exc)})
             continue
-        rows["commands"].append(plan.as_array())
-        rows["responses"].append(result.as_array())
+        rows["commands"].append(plan)
+        rows["responses"].append(result.response)
         rows["labels"].append(int(result.success))
-        rows["env"].append((y_obj, mu))
+        rows["env"].append([env[k] for k in spec.env_names])
         rows["index"].append(i)
     out = {k: np.array(v) for k, v in rows.items()}
     out["errors"] = errors
@@ -136,20 +141,20 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
     elapsed = time.perf_counter() - start
     parts = [_load_chunk(partial / f"chunk_{k:06d}.npz") for k in range(len(chunks))]
     errors = [e for p in parts for e in p["errors"]]
-    horizon1 = spec.commands.horizon + 1
+    task = get_task(spec.task)
+    shape = (-1, task.horizon + 1, len(task.channels))
     ds = Dataset(
-        commands=np.concatenate([p["commands"].reshape(-1, horizon1, 3) for p in parts]),
-        responses=np.concatenate([p["responses"].reshape(-1, horizon1, 3) for p in parts]),
+        commands=np.concatenate([p["commands"].reshape(shape) for p in parts]),
+        responses=np.concatenate([p["responses"].reshape(shape) for p in parts]),
         labels=np.concatenate([p["labels"].reshape(-1) for p in parts]).astype(np.int64),
-        env=np.concatenate([p["env"].reshape(-1, 2) for p in parts]),
-        dt=spec.commands.dt, env_names=ENV_NAMES,
+        env=np.concatenate([p["env"].reshape(-1, len(spec.env_names)) for p in parts]),
+        dt=task.dt, env_names=spec.env_names, task=task.name, channels=task.channel_names, units=task.units,
         index=np.concatenate([p["index"].reshape(-1) for p in parts]),
         meta={
             "seed": spec.seed, "source": "simulation", "package_version": judgeopt.__version__,
             "command": command or "judgeopt.data.collect.collect()", "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-            "simulator": {"scene": asdict(spec.scene), "controller": asdict(spec.controller), "rollout": asdict(spec.rollout)},
-            "generator": {"commands": asdict(spec.commands), "grid": spec.grid, "per_env": spec.per_env,
-                          "ranges": None if spec.grid else spec.ranges},
+            "settings": asdict(spec.settings) if spec.settings is not None else None,
+            "generator": {"grid": spec.grid, "per_env": spec.per_env, "ranges": None if spec.grid else spec.ranges},
             "errors": errors, "collection_seconds_last_run": round(elapsed, 1),
         },
     )

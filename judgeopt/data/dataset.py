@@ -4,21 +4,24 @@ Why HDF5: the data are fixed-shape numeric arrays (n demonstrations x N + 1 samp
 channels) plus metadata; HDF5 holds both in one self-describing file that h5py, MATLAB,
 Julia and robomimic-style LfD tools already read, with partial reads for large sets.
 
-Layout (format "judgeopt-demonstrations", version 1):
+Layout (format "judgeopt-demonstrations", version 1), C channels named by attr channels (the
+scoop's: y (m), ydot (m/s), f (N)):
 
-    /commands   float64 (n, N+1, 3)  commanded [y (m), ydot (m/s), f (N)] at t_k = k dt
-    /responses  float64 (n, N+1, 3)  measured  [y (m), ydot (m/s), f (N)] (what the judge reads)
+    /commands   float64 (n, N+1, C)  commanded channels at t_k = k dt
+    /responses  float64 (n, N+1, C)  measured channels (what the judge reads)
     /labels     int8    (n,)         1 success, 0 failure
     /env        float64 (n, E)       environment values, columns named by attr env_names
     /index      int64   (n,)         demonstration number within its collection (seeded)
-    attrs: format, format_version, dt, horizon, channels, units, env_names, seed, source,
-           package_version, command, created, and JSON blobs `simulator` and `generator`
-           (scene, controller, rollout and random-command parameters) and `errors` (the
-           demonstrations that could not be run, with the reason).
+    attrs: format, format_version, task (absent in files made before tasks: the scoop), dt,
+           horizon, channels, units, env_names, seed, source, package_version, command,
+           created, and JSON blobs `settings` (the task's scene, controller, rollout and
+           random-command parameters; `simulator` in older files), `generator` (grid and
+           ranges) and `errors` (the demonstrations that could not be run, with the reason).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import tempfile
@@ -29,6 +32,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.trajectory import CHANNELS, UNITS
 
 FORMAT = "judgeopt-demonstrations"
@@ -49,14 +53,20 @@ class Dataset:
     env_names: tuple[str, ...]
     index: np.ndarray | None = None
     meta: dict[str, Any] = field(default_factory=dict)
+    # the task whose channels these are (files written before tasks existed are the scoop's)
+    task: str = DEFAULT_TASK
+    channels: tuple[str, ...] = CHANNELS
+    units: dict[str, str] = field(default_factory=lambda: dict(UNITS))
 
     def __post_init__(self) -> None:
         n = len(self.labels)
         self.index = np.arange(n) if self.index is None else np.asarray(self.index)
+        self.channels = tuple(self.channels)
         for name in ("commands", "responses"):
             a = getattr(self, name)
-            if a.ndim != 3 or a.shape[0] != n or a.shape[2] != len(CHANNELS):
-                raise DatasetError(f"{name} must have shape (n={n}, N+1, {len(CHANNELS)}), got {a.shape}")
+            if a.ndim != 3 or a.shape[0] != n or a.shape[2] != len(self.channels):
+                raise DatasetError(f"{name} must have shape (n={n}, N+1, {len(self.channels)}) for channels "
+                                   f"{', '.join(self.channels)}, got {a.shape}")
         if self.commands.shape != self.responses.shape:
             raise DatasetError(f"commands {self.commands.shape} and responses {self.responses.shape} differ in shape")
         if self.env.shape != (n, len(self.env_names)):
@@ -76,8 +86,9 @@ class Dataset:
         return float(self.labels.mean()) if self.n else float("nan")
 
     def subset(self, mask: np.ndarray) -> "Dataset":
-        return Dataset(self.commands[mask], self.responses[mask], self.labels[mask], self.env[mask], self.dt,
-                       self.env_names, self.index[mask], dict(self.meta))
+        return dataclasses.replace(self, commands=self.commands[mask], responses=self.responses[mask],
+                                   labels=self.labels[mask], env=self.env[mask], index=self.index[mask],
+                                   meta=dict(self.meta))
 
     def summary(self) -> dict[str, Any]:
         """Counts and success ratios overall and per distinct environment (for grids)."""
@@ -89,6 +100,8 @@ class Dataset:
                 per_env.append({**dict(zip(self.env_names, key.tolist())), "n": int(m.sum()),
                                 "success_ratio": float(self.labels[m].mean())})
         return {
+            "task": self.task,
+            "channels": list(self.channels),
             "n": self.n,
             "success_ratio": self.success_ratio(),
             "horizon": self.horizon,
@@ -121,8 +134,9 @@ def save(ds: Dataset, path: str | Path) -> Path:
             a = h.attrs
             a["format"], a["format_version"] = FORMAT, VERSION
             a["dt"], a["horizon"] = float(ds.dt), int(ds.horizon)
-            a["channels"] = json.dumps(list(CHANNELS))
-            a["units"] = json.dumps(UNITS)
+            a["task"] = ds.task
+            a["channels"] = json.dumps(list(ds.channels))
+            a["units"] = json.dumps(ds.units)
             a["env_names"] = json.dumps(list(ds.env_names))
             for key, value in ds.meta.items():
                 a[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
@@ -133,7 +147,7 @@ def save(ds: Dataset, path: str | Path) -> Path:
     return path
 
 
-_JSON_ATTRS = {"simulator", "generator", "errors", "seed"}
+_JSON_ATTRS = {"simulator", "settings", "generator", "errors", "seed"}
 
 
 def load(path: str | Path) -> Dataset:
@@ -155,11 +169,11 @@ def load(path: str | Path) -> Dataset:
         if missing:
             raise DatasetError(f"{path}: missing arrays {missing}")
         channels = json.loads(a.get("channels", "[]"))
-        if tuple(channels) != CHANNELS:
-            raise DatasetError(f"{path}: channels {channels} differ from the expected {list(CHANNELS)}")
+        if not channels:
+            raise DatasetError(f"{path}: names no channels (attribute 'channels')")
         meta = {}
         for k, v in a.items():
-            if k in ("format", "format_version", "dt", "horizon", "channels", "units", "env_names"):
+            if k in ("format", "format_version", "dt", "horizon", "channels", "units", "env_names", "task"):
                 continue
             meta[k] = json.loads(v) if k in _JSON_ATTRS and isinstance(v, str) else (v.item() if hasattr(v, "item") else v)
         try:
@@ -172,6 +186,9 @@ def load(path: str | Path) -> Dataset:
                 env_names=tuple(json.loads(a["env_names"])),
                 index=h["index"][()] if "index" in h else None,
                 meta=meta,
+                task=str(a.get("task", DEFAULT_TASK)),
+                channels=tuple(channels),
+                units=json.loads(a["units"]) if "units" in a else {},
             )
         except DatasetError as exc:
             raise DatasetError(f"{path}: {exc}") from exc
@@ -187,11 +204,12 @@ def load(path: str | Path) -> Dataset:
 def concatenate(parts: list[Dataset]) -> Dataset:
     first = parts[0]
     for p in parts[1:]:
-        if p.dt != first.dt or p.horizon != first.horizon or p.env_names != first.env_names:
-            raise DatasetError(f"cannot merge datasets with dt/horizon/env {p.dt}/{p.horizon}/{p.env_names} "
-                               f"and {first.dt}/{first.horizon}/{first.env_names}")
-    return Dataset(
-        np.concatenate([p.commands for p in parts]), np.concatenate([p.responses for p in parts]),
-        np.concatenate([p.labels for p in parts]), np.concatenate([p.env for p in parts]), first.dt,
-        first.env_names, np.concatenate([p.index for p in parts]), dict(first.meta),
-    )
+        a, b = (p.task, p.channels, p.dt, p.horizon, p.env_names), (first.task, first.channels, first.dt, first.horizon,
+                                                                 first.env_names)
+        if a != b:
+            raise DatasetError(f"cannot merge datasets of task/channels/dt/horizon/env {'/'.join(map(str, a))} "
+                               f"and {'/'.join(map(str, b))}")
+    return dataclasses.replace(
+        first, commands=np.concatenate([p.commands for p in parts]), responses=np.concatenate([p.responses for p in parts]),
+        labels=np.concatenate([p.labels for p in parts]), env=np.concatenate([p.env for p in parts]),
+        index=np.concatenate([p.index for p in parts]), meta=dict(first.meta))

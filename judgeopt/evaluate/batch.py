@@ -17,11 +17,11 @@ from judgeopt.parallel import backend, worker_cache
 from judgeopt.planners.problem import Problem
 
 
-def simulator():
-    """This process's simulator of the shipped scene."""
-    from judgeopt.sim.rollout import Simulator
+def simulator(task: str):
+    """This process's simulator of the task's shipped scene."""
+    from judgeopt.tasks import get_task
 
-    return worker_cache("sim", Simulator)
+    return worker_cache(f"sim:{task}", get_task(task).simulator)
 
 
 def planners(problem: Problem, methods: tuple[str, ...], judge: str | None = None, models_dir: str = "models",
@@ -35,17 +35,19 @@ def planners(problem: Problem, methods: tuple[str, ...], judge: str | None = Non
 
 
 def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simulate: bool) -> list[dict]:
-    """The paper's "random actions" baseline: the demonstration generator's random scoops."""
-    from judgeopt.data.commands import random_command
+    """The paper's "random actions" baseline: the task's random demonstration commands."""
     from judgeopt.planners.result import PlanResult, constraint_residuals
+    from judgeopt.tasks import get_task
+    from judgeopt.trajectory import Plan
 
+    task = get_task(problem.task)
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
-        plan = random_command(np.random.default_rng([seed, first + i]), env["y_obj"])
+        plan = Plan.from_array(task.dt, task.random_command(np.random.default_rng([seed, first + i]), env))
         r = PlanResult("random", env, plan, None, "sampled", 0.0, constraint_residuals(problem, plan, env))
         if simulate:
-            r.simulated_success = bool(simulator().run(plan, env["y_obj"], env["mu"]).success)
+            r.simulated_success = bool(simulator(problem.task).simulate(plan, env).success)
         rows.append({**r.to_json(), "env_index": first + i})
     return rows
 
@@ -59,7 +61,7 @@ def plan_chunk(problem: Problem, methods: tuple[str, ...], models_dir: str, envs
     if methods == ("random",):
         return _random_rows(problem, envs, first, seed, simulate)
     loaded = planners(problem, methods, judge, models_dir)
-    sim = simulator() if simulate else None
+    sim = simulator(problem.task) if simulate else None
     rows = []
     for i, e in enumerate(envs):
         for r in loaded.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim):

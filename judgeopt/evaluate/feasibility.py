@@ -42,13 +42,6 @@ def env_rng(problem: Problem, env: dict[str, float], seed: int, stream: int) -> 
     return np.random.default_rng([seed, stream, key])
 
 
-def _score(out, rollout_cfg) -> float:
-    """Success dominates; below it, rising with the blade and ending near its centre."""
-    rise = min(max(out.object_rise, 0.0) / rollout_cfg.success_rise, 1.0)
-    offset = min(out.info["offset_from_blade"] / rollout_cfg.max_overhang, 3.0)
-    return 10.0 * float(out.success) + rise - 0.3 * offset
-
-
 def _valid(commands: SplineCommands, q_end: float, n: int, draw) -> tuple[np.ndarray, np.ndarray]:
     """n knot vectors from draw(n) whose plans end within TERMINAL_TOL of q_end (clipping to the
     velocity limits can spoil a draw's end), and their plans; fewer only if 50 n draws miss."""
@@ -81,7 +74,7 @@ def nojudge_rows(problem: Problem, env: dict[str, float], sim, n: int, seed: int
                  "simulated_success": None}]
     rows = []
     for i, plan in enumerate(random_plans(problem, env, n, seed)):
-        out = sim.run(plan, env["y_obj"], env["mu"])
+        out = sim.simulate(plan, env)
         rows.append({"method": "nojudge", "environment": env, "status": "sampled", "try": i,
                      "simulated_success": bool(out.success), "predicted_success": None,
                      "max_constraint_violation": 0.0, "solve_time_s": 0.0})
@@ -105,9 +98,9 @@ def search(problem: Problem, env: dict[str, float], sim, seed: int, cfg: SearchC
                       lambda k: np.clip(mean + std * rng.standard_normal((k, commands.dim)), 0.0, 1.0))
         scores = np.full(len(z), -np.inf)
         for j in range(len(z)):
-            out = sim.run(Plan.from_array(problem.dt, x[j]), env["y_obj"], env["mu"])
+            out = sim.simulate(Plan.from_array(problem.dt, x[j]), env)
             tries += 1
-            scores[j] = _score(out, sim.rollout_config)
+            scores[j] = out.progress
             if out.success:
                 return {"method": "search", "environment": env, "status": "found", "simulated_success": True,
                         "tries": tries, "plan": x[j].tolist(), "config": asdict(cfg)}

@@ -60,7 +60,7 @@ def expected_calibration_error(labels: np.ndarray, prob: np.ndarray, n_bins: int
 
 def judge_inputs(model: Judge, ds: Dataset) -> tuple[np.ndarray, np.ndarray]:
     """(responses, the judge's env columns) after checking the dataset fits the judge."""
-    check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, env_names=ds.env_names)
+    check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, channels=ds.channels, env_names=ds.env_names)
     return ds.responses, select_env(ds.env, ds.env_names, model.config.env_names)
 
 

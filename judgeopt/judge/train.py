@@ -90,7 +90,7 @@ def stratified_split(labels: np.ndarray, fraction: float, seed: int) -> tuple[np
 
 
 def _tensors(model: Judge, ds: Dataset, invert: bool) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, env_names=ds.env_names)
+    check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, channels=ds.channels, env_names=ds.env_names)
     x, e = model.check_inputs(ds.responses, select_env(ds.env, ds.env_names, model.config.env_names))
     y = (1 - ds.labels) if invert else ds.labels
     return (torch.as_tensor(x, dtype=torch.float32), torch.as_tensor(e, dtype=torch.float32),

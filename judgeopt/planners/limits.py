@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judgeopt.data.commands import RandomCommandConfig
 from judgeopt.planners.problem import Problem, ProblemError
+from judgeopt.tasks import DEFAULT_TASK, get_task
 
 #: the limits a conditioned generator reads, in input order
 CONDITION_NAMES = ("qdot_max", "f_min", "f_max")
@@ -36,8 +36,9 @@ class LimitRanges:
         if not self.f_min[1] < self.f_max[0]:
             raise ProblemError(f"f_min range {list(self.f_min)} must lie below the f_max range {list(self.f_max)} "
                                "(every sampled f_min < f_max)")
-        demos = RandomCommandConfig()
-        for name, (lo, hi) in (("qdot_max", (0.0, demos.max_speed)), ("f_min", demos.force), ("f_max", demos.force)):
+        task = get_task(DEFAULT_TASK)
+        speed, force = task.demonstrated_bound("velocity")[1], task.demonstrated_bound("force")
+        for name, (lo, hi) in (("qdot_max", (0.0, speed)), ("f_min", force), ("f_max", force)):
             v = getattr(self, name)
             if v[0] < lo or v[1] > hi or (name == "qdot_max" and v[0] <= lo):
                 raise ProblemError(f"{name} range {list(v)} leaves [{lo:g}, {hi:g}], what the demonstrations cover "

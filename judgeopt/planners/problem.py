@@ -20,6 +20,8 @@ from typing import Any
 
 import numpy as np
 
+from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
+
 #: a terminal position that is "wherever the object is"
 Y_OBJ = "y_obj"
 
@@ -58,6 +60,7 @@ class Problem:
 
     name: str = "unnamed"
     description: str = ""
+    task: str = DEFAULT_TASK
     steps: int = 30
     dt: float = 0.05
     q0: float = -0.03
@@ -70,7 +73,7 @@ class Problem:
     f_max: float = 22.5
     q_end: float | str = Y_OBJ
     qdot_end: float = 0.0
-    environment: dict[str, EnvValue] = field(default_factory=lambda: {"y_obj": (0.10, 0.28), "mu": (1.0, 3.0)})
+    environment: dict[str, EnvValue] = field(default_factory=lambda: get_task(DEFAULT_TASK).env_ranges())
     # loss weights: eq. (3) P; eq. (4) Q (limits) and R (terminal) for the generator; the
     # smoothing terms (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s) keep the direct
     # solve away from bang-bang plans the controller cannot follow.
@@ -82,7 +85,7 @@ class Problem:
     p_min: float | None = None  # optional hard constraint y_judge >= p_min in the direct solve
     max_iter: int = 300
     tol: float = 1e-6
-    judge: str = "models/judge_default"
+    judge: str = ""  # empty: the task's default judge
     # remedies against exploiting the judge (off unless set): the direct solve maximises
     # mean - pessimism * std of an ensemble's logits; and/or keeps the plan within
     # `trust_region` (Mahalanobis distance) of the demonstrations modelled in `trust_model`
@@ -97,6 +100,8 @@ class Problem:
 
     def __post_init__(self) -> None:
         self.validate()
+        if not self.judge:
+            object.__setattr__(self, "judge", get_task(self.task).default_judge)
 
     # -- validation -----------------------------------------------------------------
     def validate(self) -> None:
@@ -137,6 +142,14 @@ class Problem:
             raise ProblemError(f"max_iter = {self.max_iter!r}{where} must be a positive whole number")
         if not self.environment:
             raise ProblemError(f"the environment{where} names no variables")
+        try:
+            task = get_task(self.task)
+        except TaskError as exc:
+            raise ProblemError(f"{exc}{where}") from None
+        unknown = [k for k in self.environment if k not in task.env_names]
+        if unknown:  # a subset is allowed: a real setup may not know every variable (paper_real.toml)
+            raise ProblemError(f"environment {', '.join(unknown)}{where}: not a variable of task {task.name!r} "
+                               f"(it has {', '.join(task.env_names)})")
         for k, v in self.environment.items():
             if isinstance(v, tuple):
                 if not (len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1]):
@@ -148,6 +161,11 @@ class Problem:
     @property
     def env_names(self) -> tuple[str, ...]:
         return tuple(self.environment)
+
+    @property
+    def channels(self) -> tuple[str, ...]:
+        """The task's channels, the plan's columns."""
+        return get_task(self.task).channel_names
 
     def nominal_env(self) -> dict[str, float]:
         """Fixed values as given, ranges at their midpoint (what a single solve uses by default)."""
@@ -289,10 +307,10 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [environment] must be a table")
             flat["environment"] = dict(value)  # a derived file replaces the whole environment
-        elif key in ("name", "description"):
+        elif key in ("name", "description", "task"):
             flat[key] = value
         else:
-            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, base, environment, "
+            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, base, environment, "
                                f"{', '.join(f'[{s}]' for s in SECTIONS)}")
     return flat
 

@@ -102,7 +102,7 @@ class Planners:
             raise ProblemError(f"unknown method(s) {bad}; choose from {list(METHODS)}")
         chosen = choose_models(problem, methods, judge, generator, models_dir)
         jmodel, jmeta = load_judge(chosen.judge)
-        check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+        check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, judge_path=chosen.judge, models_dir=models_dir, generator_given=generator)
         if "amortized" in methods or "direct" in methods:
             gpath = chosen.generator
@@ -133,7 +133,7 @@ class Planners:
 
                 judges, _ = load_ensemble(resolve(problem.ensemble))
                 for m in judges:
-                    check_compatible(m.config, horizon=problem.steps, dt=problem.dt, env_names=problem.env_names)
+                    check_compatible(m.config, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
                 members = [build_casadi_judge(m, backend=backend) for m in judges]
                 out.notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
                                  f"{len(members)} judges ({problem.ensemble})")
@@ -231,8 +231,7 @@ class Planners:
         if simulator is not None:
             for r in results:
                 if r.plan is not None:
-                    out = simulator.run(r.plan, env["y_obj"], env["mu"])
+                    out = simulator.simulate(r.plan, env)
                     r.simulated_success = bool(out.success)
-                    r.info.update(sim_object_rise=out.object_rise, sim_offset_from_blade=out.info["offset_from_blade"],
-                                  sim_on_blade=out.info["on_blade"], sim_on_plate=out.info["on_plate"])
+                    r.info.update({f"sim_{k}": v for k, v in out.details.items() if isinstance(v, (bool, int, float))})
         return results

@@ -16,12 +16,10 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from judgeopt.data.commands import RandomCommandConfig
 from judgeopt.planners.problem import ProblemError
 from judgeopt.planners.result import LIKELY, PlanResult
 from judgeopt.planners.solve import Planners
-
-_DEMOS = RandomCommandConfig()
+from judgeopt.tasks import Task, get_task
 
 
 @dataclass(frozen=True)
@@ -36,11 +34,12 @@ class Relaxation:
     unit: str
 
 
-RELAXATIONS = (
-    Relaxation("f_max", +1, 1.0, _DEMOS.force[1], "N"),
-    Relaxation("qdot_max", +1, 0.05, _DEMOS.max_speed, "m/s"),
-    Relaxation("f_min", -1, 1.0, _DEMOS.force[0], "N"),
-)
+def relaxations(task: Task) -> tuple[Relaxation, ...]:
+    """The limits a user of `task` could relax, bounded by what its demonstrations commanded."""
+    (f_lo, f_hi), (_, v_hi) = task.demonstrated_bound("force"), task.demonstrated_bound("velocity")
+    f_unit, v_unit = task.channels_of("force")[0].unit, task.channels_of("velocity")[0].unit
+    return (Relaxation("f_max", +1, 1.0, f_hi, f_unit), Relaxation("qdot_max", +1, 0.05, v_hi, v_unit),
+            Relaxation("f_min", -1, 1.0, f_lo, f_unit))
 
 
 @dataclass
@@ -89,16 +88,17 @@ def _screen(planners: Planners, name: str, value: float, env: dict[str, float], 
 
 
 def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult],
-            relaxations=RELAXATIONS) -> list[Suggestion]:
+            limits: tuple[Relaxation, ...] | None = None) -> list[Suggestion]:
     """One suggestion per limit whose relaxation (within the demonstrations' reach) makes a plan
     likely, smallest relative change first. Empty: no single limit's relaxation helps.
     `results`: the plans under the current limits; the best one warm-starts every direct solve
     (it satisfies any relaxed limits too)."""
     found: list[Suggestion] = []
     p = planners.problem
+    limits = limits if limits is not None else relaxations(get_task(p.task))
     start = best(results)
     guess = start.plan if start is not None else None
-    for rx in relaxations:
+    for rx in limits:
         current = getattr(p, rx.name)
         if (rx.bound - current) * rx.direction <= rx.resolution:
             continue  # already at what the demonstrations reach

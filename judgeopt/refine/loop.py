@@ -71,7 +71,7 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
     from judgeopt.evaluate.batch import planners as load_planners, simulator
 
     torch.set_num_threads(1)
-    planners, sim = load_planners(problem, methods, judge, generator=generator), simulator()
+    planners, sim = load_planners(problem, methods, judge, generator=generator), simulator(problem.task)
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
@@ -79,9 +79,9 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
         for r in (planners.with_limits(**lim) if lim else planners).solve(env):
             if r.plan is None:  # limits infeasible for this environment: nothing to replay
                 continue
-            out = sim.run(r.plan, env["y_obj"], env["mu"])
+            out = sim.simulate(r.plan, env)
             rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
-                         "limits": lim, "command": r.plan.as_array().tolist(), "response": out.as_array().tolist(),
+                         "limits": lim, "command": r.plan.as_array().tolist(), "response": out.response.tolist(),
                          "success": bool(out.success), "predicted": r.predicted_success,
                          "violation": r.max_constraint_violation})
     return rows

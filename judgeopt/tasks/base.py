@@ -70,14 +70,45 @@ class Outcome:
     success: bool
     response: np.ndarray
     details: dict[str, Any] = field(default_factory=dict)
+    # how close a failure came, for searches scored by the simulator: above 1 only on success
+    progress: float = 0.0
+
+
+def with_setting(settings: Any, key: str, text: str) -> Any:
+    """`settings` with the field at dotted `key` (e.g. "commands.constant_force_share") set to
+    `text`, parsed as the field's current type."""
+    import dataclasses
+
+    head, _, rest = key.partition(".")
+    if settings is None or not dataclasses.is_dataclass(settings) or head not in {f.name for f in dataclasses.fields(settings)}:
+        known = [f.name for f in dataclasses.fields(settings)] if dataclasses.is_dataclass(settings) else []
+        raise TaskError(f"no setting {key!r} (settings here: {', '.join(known) or 'none'})")
+    current = getattr(settings, head)
+    if rest:
+        return dataclasses.replace(settings, **{head: with_setting(current, rest, text)})
+    if dataclasses.is_dataclass(current):
+        raise TaskError(f"setting {key!r} is a group: name one of its fields ({key}.FIELD)")
+    try:
+        if isinstance(current, bool):
+            value: Any = {"true": True, "false": False}[text.lower()]
+        elif isinstance(current, (int, float, str)):
+            value = type(current)(text)
+        elif isinstance(current, tuple):
+            value = tuple(type(current[0])(v) for v in text.split(","))
+        else:
+            raise TaskError(f"setting {key!r} ({type(current).__name__}) cannot be set from the command line")
+    except (KeyError, ValueError):
+        raise TaskError(f"setting {key!r} = {text!r}: expected a value like {current!r}") from None
+    return dataclasses.replace(settings, **{head: value})
 
 
 class TaskSimulator(ABC):
     """One simulator instance per process (it may hold a physics client)."""
 
     @abstractmethod
-    def simulate(self, plan: np.ndarray, env: Mapping[str, float], record: int = 0) -> Outcome:
-        """Replay `plan` ((horizon + 1, channels) at the task's dt) in environment `env`."""
+    def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:
+        """Replay `plan` (a Plan, or a (horizon + 1, channels) array at the task's dt) in
+        environment `env`; `record` > 0 keeps every record-th physics step for rendering."""
 
 
 class Task(ABC):
@@ -89,6 +120,10 @@ class Task(ABC):
     env_vars: tuple[EnvVar, ...]
     horizon: int = DEFAULT_HORIZON
     dt: float = DEFAULT_DT
+    #: the judge a problem of this task plans against unless it names another
+    default_judge: str = ""
+    #: the grid of environments demonstrations are collected on with `collect --per-env` (optional)
+    demo_grid: dict[str, tuple[float, ...]] | None = None
 
     # -- names -----------------------------------------------------------------------------
     @property
@@ -137,13 +172,36 @@ class Task(ABC):
         """Position channels whose end value the environment fixes (default: none)."""
         return {}
 
+    def settings(self) -> Any:
+        """The task's own settings (scene, controller, random commands): a frozen dataclass whose
+        defaults are the shipped ones; recorded in every dataset the task's simulator makes."""
+        return None
+
     @abstractmethod
-    def random_command(self, rng: np.random.Generator, env: Mapping[str, float]) -> np.ndarray:
+    def random_command(self, rng: np.random.Generator, env: Mapping[str, float], settings: Any = None) -> np.ndarray:
         """A random demonstration command, (horizon + 1, channels); deterministic given `rng`."""
 
     @abstractmethod
-    def simulator(self) -> TaskSimulator:
-        """A new simulator of the task's scene."""
+    def simulator(self, settings: Any = None) -> TaskSimulator:
+        """A new simulator of the task's scene (default settings when None)."""
+
+    def explain(self, details: Mapping[str, Any]) -> str:
+        """One line on a simulated outcome's details (what `solve` prints after a replay)."""
+        return ", ".join(f"{k} = {v:.4g}" if isinstance(v, float) else f"{k} = {v}" for k, v in details.items())
+
+    def render(self, plan: Any, env: Mapping[str, float], out: Any, caption: str = "", simulator: Any = None) -> Any:
+        """Replay `plan` and save it as a GIF at `out`; returns the rollout's result (tasks with
+        a renderer override this; `simulator`: one to reuse)."""
+        raise TaskError(f"task {self.name!r} has no renderer")
+
+    def demonstrated(self) -> dict[str, tuple[float, float]]:
+        """Per channel, the range the task's random demonstrations command: what a judge trained
+        on them has seen, so what limits may be relaxed to. Default: unbounded."""
+        return {c.name: (-math.inf, math.inf) for c in self.channels}
+
+    def demonstrated_bound(self, kind: str) -> tuple[float, float]:
+        """The demonstrated range of the first channel of `kind` (position, velocity, force)."""
+        return self.demonstrated()[self.channels_of(kind)[0].name]
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "description": self.description,

@@ -16,6 +16,8 @@ import numpy as np
 from judgeopt.sim._quiet import c_stdout_to_stderr, pb
 
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
+from judgeopt.tasks.base import EnvironmentRangeError
+from judgeopt.tasks.scoop import ENV_VARS
 
 ARM_JOINTS = (
     "shoulder_pan_joint",
@@ -27,15 +29,11 @@ ARM_JOINTS = (
 )
 
 #: physical range of the environment variables the scene accepts
-ENV_RANGES = {"y_obj": (0.05, 0.35), "mu": (0.01, 5.0)}
+ENV_RANGES = {v.name: v.physical for v in ENV_VARS}
 
 
 #: SceneConfig.plant_inertia: which inertias PyBullet integrates
 PLANT_INERTIA = ("urdf", "collision_shapes")
-
-
-class EnvironmentRangeError(ValueError):
-    """An environment value outside the physical range of the scene."""
 
 
 @dataclass(frozen=True)

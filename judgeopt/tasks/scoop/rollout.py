@@ -19,14 +19,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
 from judgeopt.sim._quiet import pb
 
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
-from judgeopt.sim.scene import Scene, SceneConfig, check_environment
-from judgeopt.trajectory import Plan, PlanError
+from judgeopt.tasks.scoop.scene import Scene, SceneConfig, check_environment
+from judgeopt.tasks.base import Outcome, TaskSimulator
+from judgeopt.trajectory import DEFAULT_DT, Plan, PlanError
 
 #: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
 HOME_POSTURE = np.array([-0.816, -1.778, 2.418, -2.211, -1.571, -2.387])
@@ -72,7 +74,7 @@ def check_plan(plan: Plan) -> None:
             raise PlanError(f"commanded {name} = {values[k]:.4g} at sample {k} is outside the reachable range [{lo}, {hi}]")
 
 
-class Simulator:
+class Simulator(TaskSimulator):
     """A scene, its controller and the rollout procedure; one per process (PyBullet client)."""
 
     def __init__(self, scene: SceneConfig | None = None, controller: ControllerConfig | None = None,
@@ -138,6 +140,19 @@ class Simulator:
         pb.stepSimulation(physicsClientId=sc.client)
 
     # -- the rollout -------------------------------------------------------------------
+    def simulate(self, plan: np.ndarray | Plan, env: Mapping[str, float], record: int = 0) -> Outcome:
+        """The task interface: a Plan, or a (N + 1, 3) [y, ydot, f] array at the default period."""
+        if not isinstance(plan, Plan):
+            plan = Plan.from_array(DEFAULT_DT, plan)
+        r = self.run(plan, float(env["y_obj"]), float(env["mu"]), record=record)
+        cfg = self.rollout_config
+        # success dominates; below it, rising with the blade and ending near its centre
+        rise = min(max(r.object_rise, 0.0) / cfg.success_rise, 1.0)
+        offset = min(r.info["offset_from_blade"] / cfg.max_overhang, 3.0)
+        progress = 10.0 * float(r.success) + rise - 0.3 * offset
+        return Outcome(r.success, r.as_array(), {"object_rise": r.object_rise, "object_shift": r.object_shift, **r.info},
+                       progress)
+
     def run(self, plan: Plan, y_obj: float, mu: float, record: int = 0) -> RolloutResult:
         """Replay `plan` in environment (y_obj, mu). `record` > 0 keeps every record-th
         step's scene state in info["frames"] for rendering."""

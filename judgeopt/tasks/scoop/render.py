@@ -11,7 +11,7 @@ import numpy as np
 from judgeopt.sim._quiet import pb
 from PIL import Image, ImageDraw
 
-from judgeopt.sim.rollout import RolloutResult, Simulator
+from judgeopt.tasks.scoop.rollout import RolloutResult, Simulator
 from judgeopt.trajectory import Plan
 
 

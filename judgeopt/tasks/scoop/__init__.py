@@ -1,0 +1,100 @@
+"""The scoop (paper IV): a UR5 with a spatula slides under a pancake-like object on a soft plate
+and lifts it, under the hybrid position/force controller. One position axis y along the
+scooping line, its velocity, and the pressing force; the environment is the object's position
+y_obj and the spatula-object friction mu; the scoop ends at the object.
+
+The simulator (PyBullet, Pinocchio) loads only when `simulator()` is called.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from judgeopt.tasks.base import Channel, EnvVar, Task, TaskSimulator
+
+CHANNELS = (Channel("y", "m", "position"), Channel("ydot", "m/s", "velocity", of="y"), Channel("f", "N", "force"))
+ENV_VARS = (
+    EnvVar("y_obj", "m", physical=(0.05, 0.35), sampled=(0.10, 0.28),
+           description="the object centre's position along the scooping line (paper Table 3)"),
+    EnvVar("mu", "", physical=(0.01, 5.0), sampled=(1.0, 3.0),
+           description="spatula-object friction coefficient (paper Table 3)"),
+)
+#: the paper's 3 x 3 grid of demonstration environments (IV-B)
+PAPER_GRID = {"y_obj": (0.10, 0.19, 0.28), "mu": (1.0, 2.0, 3.0)}
+
+
+@dataclass(frozen=True)
+class ScoopSettings:
+    """Everything about the scoop's simulation but the environment. Fields default to the
+    shipped scene (their classes hold the one definition of each value)."""
+
+    commands: Any = None  # judgeopt.tasks.scoop.commands.RandomCommandConfig
+    scene: Any = None  # judgeopt.tasks.scoop.scene.SceneConfig
+    controller: Any = None  # judgeopt.sim.controller.ControllerConfig
+    rollout: Any = None  # judgeopt.tasks.scoop.rollout.RolloutConfig
+
+    def __post_init__(self) -> None:
+        from judgeopt.sim.controller import ControllerConfig
+        from judgeopt.tasks.scoop.commands import RandomCommandConfig
+        from judgeopt.tasks.scoop.rollout import RolloutConfig
+        from judgeopt.tasks.scoop.scene import SceneConfig
+
+        for name, cls in (("commands", RandomCommandConfig), ("scene", SceneConfig), ("controller", ControllerConfig),
+                          ("rollout", RolloutConfig)):
+            if getattr(self, name) is None:
+                object.__setattr__(self, name, cls())
+
+
+class ScoopTask(Task):
+    name = "scoop"
+    description = "scoop a pancake-like object off a soft plate with a spatula (Furuta et al. 2020)"
+    channels = CHANNELS
+    env_vars = ENV_VARS
+    demo_grid = PAPER_GRID
+    # fine-tuned on the planners' replayed outcomes (docs/remedies.md); the paper's judge,
+    # trained on demonstrations only, is models/judge_default
+    default_judge = "models/judge_refined"
+
+    def terminal(self, env: Mapping[str, float]) -> dict[str, float]:
+        return {"y": float(env["y_obj"])}
+
+    def settings(self) -> ScoopSettings:
+        return ScoopSettings()
+
+    def demonstrated(self) -> dict[str, tuple[float, float]]:
+        from judgeopt.tasks.scoop.commands import RandomCommandConfig
+
+        c = RandomCommandConfig()
+        return {"y": c.y_limits, "ydot": (-c.max_speed, c.max_speed), "f": c.force}
+
+    def explain(self, details: Mapping[str, Any]) -> str:
+        from judgeopt.tasks.scoop.rollout import RolloutConfig
+
+        rc = RolloutConfig()
+        return (f"the object rose {100 * details['object_rise']:.1f} cm and ended "
+                f"{100 * details['offset_from_blade']:.1f} cm from the blade centre, "
+                f"{'on' if details['on_blade'] else 'off'} the blade (success: rise >= {100 * rc.success_rise:g} cm, "
+                f"on the blade, off the plate, within {100 * rc.max_overhang:g} cm)")
+
+    def render(self, plan: Any, env: Mapping[str, float], out: Any, caption: str = "", simulator: Any = None):
+        from judgeopt.tasks.scoop.render import render_rollout
+        from judgeopt.trajectory import Plan
+
+        plan = plan if isinstance(plan, Plan) else Plan.from_array(self.dt, plan)
+        sim = simulator or self.simulator()
+        return render_rollout(sim, plan, float(env["y_obj"]), float(env["mu"]), out, caption=caption)
+
+    def random_command(self, rng: np.random.Generator, env: Mapping[str, float],
+                       settings: ScoopSettings | None = None) -> np.ndarray:
+        from judgeopt.tasks.scoop.commands import random_command
+
+        return random_command(rng, float(env["y_obj"]), (settings or ScoopSettings()).commands).as_array()
+
+    def simulator(self, settings: ScoopSettings | None = None) -> TaskSimulator:
+        from judgeopt.tasks.scoop.rollout import Simulator
+
+        s = settings or ScoopSettings()
+        return Simulator(s.scene, s.controller, s.rollout)
