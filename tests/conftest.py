@@ -18,10 +18,10 @@ def sim():
 
 
 def min_jerk_plan(y0: float, y1: float, t_move: float, force: float, horizon: int = 30, dt: float = 0.05):
-    from judgeopt.trajectory import Plan
+    from judgeopt.tasks.scoop import scoop_plan
 
     t = np.arange(horizon + 1) * dt
     s = np.clip(t / t_move, 0, 1)
     y = y0 + (y1 - y0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
     yd = (y1 - y0) * (30 * s**2 - 60 * s**3 + 30 * s**4) / t_move * (t <= t_move)
-    return Plan(dt, y, yd, np.full(horizon + 1, force))
+    return scoop_plan(dt, y, yd, np.full(horizon + 1, force))

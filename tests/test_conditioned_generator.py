@@ -164,7 +164,7 @@ def test_solve_with_a_freshly_trained_conditioned_generator(tmp_path, capsys):
     res = json.loads(capsys.readouterr().out)
     assert rc == 0 and res["generator"] == str(out) and res["notes"] == []
     (r,) = res["results"]
-    assert r["method"] == "amortized" and len(r["q"]) == 31 and 0 <= r["predicted_success"] <= 1
+    assert r["method"] == "amortized" and len(r["y"]) == 31 and 0 <= r["predicted_success"] <= 1
     # outside the ranges: no generator (the shipped per-limit ones live in another folder)
     assert main(["solve", "--qdot-max", "0.95", "--method", "amortized", "--models", str(models)]) == 2
     assert main(["train-generator", "--f-min-range", "5,9", "--epochs", "1", "--out", str(tmp_path / "x")]) == 2
@@ -199,4 +199,4 @@ def test_solve_qdot_max_055_amortized_with_the_shipped_models(capsys):
     # the default judge (problems/paper_sim.toml) is the refined one: its generator is picked
     assert rc == 0 and res["generator"].endswith("generator_conditioned_refined")
     (r,) = res["results"]
-    assert max(r["qdot"]) <= 0.55 + SOFT_LIMIT_TOL and r["predicted_success"] > 0.9
+    assert max(r["ydot"]) <= 0.55 + SOFT_LIMIT_TOL and r["predicted_success"] > 0.9

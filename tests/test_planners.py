@@ -17,7 +17,7 @@ from judgeopt.planners.generator_train import GeneratorTrainConfig, generator_lo
 from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError, load_problem
 from judgeopt.planners.result import constraint_residuals
 from judgeopt.planners.store import GeneratorFileError, find_generator, load_generator, save_generator
-from judgeopt.trajectory import Plan
+from judgeopt.tasks.scoop import scoop_plan
 
 ROOT = Path(__file__).resolve().parents[1]
 PROBLEMS = ROOT / "problems"
@@ -107,7 +107,8 @@ def test_integration_is_consistent_with_the_controllers_interpolation():
     acc = np.random.default_rng(0).normal(0, 2, 30)
     q, v = integrate(0.0, 0.1, acc, 0.05)
     assert dynamics_residual(q, v, 0.05) < 1e-15
-    t, y, ydot, _ = Plan(0.05, q, v, np.zeros(31)).resample(0.001)
+    t, x = scoop_plan(0.05, q, v, np.zeros(31)).resample(0.001)
+    y = x[:, 0]
     # constant acceleration per step: the Hermite pieces are the exact quadratics
     k = np.minimum((t / 0.05).astype(int), 29)
     tau = t - k * 0.05
@@ -190,7 +191,7 @@ def test_residuals_measure_soft_violations():
     p = Problem(qdot_max=0.4)
     plan = default_guess(p, {"y_obj": 0.2, "mu": 2.0})
     assert max(constraint_residuals(p, plan, {"y_obj": 0.2, "mu": 2.0}).values()) < 1e-6  # the guess: q_end to 3e-7
-    bad = Plan(plan.dt, plan.y, plan.ydot * 2, plan.f + 10)
+    bad = scoop_plan(plan.dt, plan.y, plan.ydot * 2, plan.f + 10)
     r = constraint_residuals(p, bad, {"y_obj": 0.2, "mu": 2.0})
     assert r["qdot_max"] > 0.01 and r["f_max"] == pytest.approx(plan.f.max() + 10 - 22.5) and r["dynamics"] > 0
 
@@ -203,11 +204,11 @@ def test_solve_json_schema_csv_and_plot(tmp_path, capsys):
     assert rc == 0 and out["status"] == "ok"
     (r,) = out["results"]
     for key in ("method", "predicted_success", "simulated_success", "max_constraint_violation", "solve_time_s",
-                "status", "t", "q", "qdot", "f"):
+                "status", "t", "y", "ydot", "f", "channels", "units"):
         assert key in r
-    assert r["simulated_success"] is None and len(r["t"]) == 31 and max(r["qdot"]) <= 0.4 + 1e-9
+    assert r["simulated_success"] is None and len(r["t"]) == 31 and max(r["ydot"]) <= 0.4 + 1e-9
     rows = (tmp_path / "plan.csv").read_text().splitlines()
-    assert rows[0] == "t [s],q [m],qdot [m/s],f [N]" and len(rows) == 1 + 1501
+    assert rows[0] == "t [s],y [m],ydot [m/s],f [N]" and len(rows) == 1 + 1501
     assert (tmp_path / "plan.png").stat().st_size > 10_000
 
 
@@ -267,16 +268,17 @@ def test_plan_json_reads_back_the_plan_with_its_context_and_provenance(tmp_path)
     for a, b in ((plan.y, r.plan.y), (plan.ydot, r.plan.ydot), (plan.f, r.plan.f)):
         assert np.array_equal(a, b)  # exact: JSON keeps every float's digits
     rec = read_plan_record(path)
-    assert rec["format"] == "judgeopt-plan" and rec["format_version"] == 1 and rec["method"] == "direct"
+    assert rec["format"] == "judgeopt-plan" and rec["format_version"] == 2 and rec["method"] == "direct"
     assert rec["environment"] == {"y_obj": 0.2, "mu": 2.0} and rec["problem"] == json.loads(json.dumps(problem.to_dict()))
     assert rec["predicted_success"] == 0.93 and rec["simulated_success"] is True
     assert rec["simulation"] == {"object_rise": 0.041} and rec["solver_info"]["ipopt_status"] == "Solve_Succeeded"
     assert set(rec["residuals"]) >= {"q_min", "q_max", "qdot_max", "f_min", "f_max", "q_end", "dynamics"}
     assert rec["status"] == "solved" and rec["solve_time_s"] == 0.81 and rec["iterations"] == 17
     fine = rec["plan_1khz"]
-    assert fine["step"] == 1e-3 and len(fine["t"]) == len(fine["q"]) == 1501
-    t, y, _, f = r.plan.resample(1e-3)
-    assert np.abs(np.array(fine["q"]) - y).max() < 1e-9 and np.abs(np.array(fine["f"]) - f).max() < 1e-6
+    assert fine["step"] == 1e-3 and len(fine["t"]) == len(fine["y"]) == 1501
+    t, x = r.plan.resample(1e-3)
+    y, f = x[:, 0], x[:, 2]
+    assert np.abs(np.array(fine["y"]) - y).max() < 1e-9 and np.abs(np.array(fine["f"]) - f).max() < 1e-6
     p = rec["provenance"]
     assert p["judge"] == {"path": str(ROOT / "models" / "judge_default"), "weights_sha256": "abc123"}
     gen_meta = json.loads((ROOT / "models" / "generator_paper_sim.json").read_text())
@@ -301,10 +303,10 @@ def test_plan_json_nonfinite_values_unused_generator_and_no_git(tmp_path, monkey
     (lambda s: s[: len(s) // 2], r"corrupt plan file, not valid JSON \(.* at line \d+, column \d+; truncated"),
     (lambda s: "[1, 2]", "not a judgeopt plan file \\(format is 'list'"),
     (lambda s: s.replace('"judgeopt-plan"', '"judgeopt-judge"'), "format is 'judgeopt-judge'"),
-    (lambda s: s.replace('"format_version": 1', '"format_version": 7'), "version 7 is newer"),
+    (lambda s: s.replace('"format_version": 2', '"format_version": 7'), "version 7 is newer"),
     (lambda s: s.replace('"provenance"', '"provenanse"'), r"missing field\(s\) \['provenance'\]"),
-    (lambda s: s.replace('"qdot": [', '"qdott": [', 1), r"missing field\(s\) \['plan.qdot'\]"),
-    (lambda s: s.replace('"q": [', '"q": [null, ', 1), "'plan.q' must be a list of numbers"),
+    (lambda s: s.replace('"ydot": [', '"ydott": [', 1), r"missing field\(s\) \['plan.ydot'\]"),
+    (lambda s: s.replace('"y": [', '"y": [null, ', 1), "'plan.y' must be a list of numbers"),
     (lambda s: s.replace('"f": [', '"f": [1.0, ', 1), "plan channels must have equal length"),
     (lambda s: s.replace('"dt": 0.05', '"dt": 0.1', 1), "'plan.t' .* is not k \\* dt"),
 ])
@@ -331,7 +333,7 @@ def test_solve_save_json_writes_one_file_per_method(tmp_path, capsys):
         path = tmp_path / f"plan_{r['method']}.json"
         assert str(path) in out["files"]
         plan, rec = read_plan_json(path), read_plan_record(path)
-        assert plan.y.tolist() == r["q"] and plan.f.tolist() == r["f"] and rec["residuals"] == r["residuals"]
+        assert plan.y.tolist() == r["y"] and plan.f.tolist() == r["f"] and rec["residuals"] == r["residuals"]
         assert rec["predicted_success"] == r["predicted_success"] and rec["simulated_success"] is None
         prov = rec["provenance"]
         assert prov["judge"]["weights_sha256"] == out["judge_sha256"] and "--save-json" in prov["command"]

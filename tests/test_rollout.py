@@ -6,7 +6,8 @@ import pytest
 from conftest import min_jerk_plan
 from judgeopt.tasks.scoop.rollout import RolloutConfig
 from judgeopt.tasks.scoop.scene import EnvironmentRangeError
-from judgeopt.trajectory import Plan, PlanError
+from judgeopt.tasks.scoop import scoop_plan
+from judgeopt.trajectory import PlanError
 
 
 def test_rollouts_are_deterministic_and_independent(sim):
@@ -48,11 +49,11 @@ def test_stopping_short_of_the_object_fails(sim):
 @pytest.mark.parametrize(
     "make, words",
     [
-        (lambda p: Plan(p.dt, p.y, p.ydot, np.where(np.arange(31) == 4, np.nan, p.f)), ["'f'", "non-finite", "4"]),
-        (lambda p: Plan(p.dt, p.y, p.ydot[:-1], p.f), ["equal length"]),
-        (lambda p: Plan(p.dt, p.y + 0.5, p.ydot, p.f), ["commanded y", "reachable range"]),
-        (lambda p: Plan(p.dt, p.y, p.ydot, p.f + 100.0), ["commanded f", "reachable range"]),
-        (lambda p: Plan(-1.0, p.y, p.ydot, p.f), ["dt"]),
+        (lambda p: scoop_plan(p.dt, p.y, p.ydot, np.where(np.arange(31) == 4, np.nan, p.f)), ["'f'", "non-finite", "4"]),
+        (lambda p: scoop_plan(p.dt, p.y, p.ydot[:-1], p.f), ["equal length"]),
+        (lambda p: scoop_plan(p.dt, p.y + 0.5, p.ydot, p.f), ["commanded y", "reachable range"]),
+        (lambda p: scoop_plan(p.dt, p.y, p.ydot, p.f + 100.0), ["commanded f", "reachable range"]),
+        (lambda p: scoop_plan(-1.0, p.y, p.ydot, p.f), ["dt"]),
     ],
 )
 def test_bad_plans_get_clear_errors(sim, make, words):
@@ -69,7 +70,8 @@ def test_bad_environment_gets_a_clear_error(sim):
 
 def test_plan_resampling_keeps_samples_and_velocity():
     p = min_jerk_plan(-0.03, 0.19, 1.0, 10.0)
-    t, y, yd, f = p.resample(1e-3)
+    t, x = p.resample(1e-3)
+    y, yd, f = x[:, 0], x[:, 1], x[:, 2]
     every = round(p.dt / 1e-3)
     assert np.allclose(y[::every], p.y) and np.allclose(yd[::every], p.ydot) and np.allclose(f[::every], p.f)
     assert np.allclose(np.gradient(y, 1e-3)[5:-5], yd[5:-5], atol=2e-3)

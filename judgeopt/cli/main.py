@@ -107,7 +107,6 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
     from judgeopt.tasks import get_task
-    from judgeopt.trajectory import Plan
 
     ds = load(args.data)
     task = get_task(ds.task)
@@ -124,7 +123,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         if not 0 <= i < ds.n:
             raise CLIError(f"--index {i} is out of range: {args.data} holds {ds.n} demonstrations")
         env = dict(zip(ds.env_names, map(float, ds.env[i])))
-        plan = Plan.from_array(ds.dt, ds.commands[i])
+        plan = task.plan(ds.commands[i], ds.dt)
         name = out / f"demo_{int(ds.index[i]):05d}_{'success' if ds.labels[i] else 'failure'}.gif"
         r = task.render(plan, env, name, caption=f"demo {int(ds.index[i])}", simulator=sim)
         agree = "" if r.success == bool(ds.labels[i]) else "  (label in file differs: simulator settings changed?)"

@@ -38,13 +38,12 @@ def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simu
     """The paper's "random actions" baseline: the task's random demonstration commands."""
     from judgeopt.planners.result import PlanResult, constraint_residuals
     from judgeopt.tasks import get_task
-    from judgeopt.trajectory import Plan
 
     task = get_task(problem.task)
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
-        plan = Plan.from_array(task.dt, task.random_command(np.random.default_rng([seed, first + i]), env))
+        plan = task.plan(task.random_command(np.random.default_rng([seed, first + i]), env))
         r = PlanResult("random", env, plan, None, "sampled", 0.0, constraint_residuals(problem, plan, env))
         if simulate:
             r.simulated_success = bool(simulator(problem.task).simulate(plan, env).success)

@@ -62,7 +62,7 @@ def random_plans(problem: Problem, env: dict[str, float], n: int, seed: int, kno
     commands = SplineCommands(problem, knots)
     rng = env_rng(problem, env, seed, 101)
     _, x = _valid(commands, problem.terminal_position(env), n, lambda k: rng.uniform(0.0, 1.0, (k, commands.dim)))
-    return [Plan.from_array(problem.dt, xi) for xi in x]
+    return [Plan.from_array(problem.dt, xi, problem.channel_spec) for xi in x]
 
 
 def nojudge_rows(problem: Problem, env: dict[str, float], sim, n: int, seed: int) -> list[dict]:
@@ -98,7 +98,7 @@ def search(problem: Problem, env: dict[str, float], sim, seed: int, cfg: SearchC
                       lambda k: np.clip(mean + std * rng.standard_normal((k, commands.dim)), 0.0, 1.0))
         scores = np.full(len(z), -np.inf)
         for j in range(len(z)):
-            out = sim.simulate(Plan.from_array(problem.dt, x[j]), env)
+            out = sim.simulate(Plan.from_array(problem.dt, x[j], problem.channel_spec), env)
             tries += 1
             scores[j] = out.progress
             if out.success:

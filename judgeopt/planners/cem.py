@@ -121,7 +121,7 @@ class CEMPlanner:
             elite = z[order[:n_elite]]
             mean, std = elite.mean(0), np.maximum(elite.std(0), cfg.min_std)
         x, _ = self.commands.decode(best_z, q_end)
-        plan = Plan.from_array(pr.dt, x[0])
+        plan = Plan.from_array(pr.dt, x[0], pr.channel_spec)
         elapsed = time.perf_counter() - t0
         prob = float(self.judge.predict_proba(x, e[:1])[0])
         return PlanResult(self.method, env, plan, prob, "sampled", elapsed, constraint_residuals(pr, plan, env),

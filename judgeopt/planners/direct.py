@@ -58,7 +58,7 @@ def default_guess(problem: Problem, env: dict[str, float]) -> Plan:
     v[0], v[-1] = problem.qdot0, problem.qdot_end
     q = problem.q0 + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[:-1] + v[1:]))])
     f = np.full(n + 1, 0.5 * (problem.f_min + problem.f_max))
-    return Plan(dt, q, v, f)
+    return Plan.from_columns(dt, problem.channel_spec, q, v, f)
 
 
 @dataclass
@@ -169,7 +169,7 @@ class DirectPlanner:
         q = np.concatenate([[self.problem.q0], x[:n] * SCALE_Q])
         v = np.concatenate([[self.problem.qdot0], x[n:2 * n] * SCALE_V])
         f = x[3 * n:] * SCALE_F
-        return Plan(self.problem.dt, q, v, f)
+        return Plan.from_columns(self.problem.dt, self.problem.channel_spec, q, v, f)
 
     def solve(self, env: dict[str, float], guess: Plan | None = None) -> PlanResult:
         """Solve for one environment; infeasible limits are reported without calling Ipopt."""

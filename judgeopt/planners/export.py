@@ -2,7 +2,8 @@
 provenance (so a run on a real arm can be traced back to the models, code and command that
 planned it, and replayed), and the Figs. 15/16-style plot.
 
-Plan JSON (format "judgeopt-plan", version 1; `write_json`, read back by `read_plan_json`):
+Plan JSON (format "judgeopt-plan", version 2; `write_json`, read back by `read_plan_json`, which
+also reads version 1, whose columns were always q, qdot, f):
 
     format, format_version
     method, status, message, solve_time_s, iterations
@@ -15,9 +16,10 @@ Plan JSON (format "judgeopt-plan", version 1; `write_json`, read back by `read_p
     simulated_success           true/false if replayed in the simulator, else null; `simulation`
                                 holds what the replay measured
     max_constraint_violation, worst_constraint, residuals   every constraint's worst violation
-    plan                        dt, horizon, units and t, q, qdot, f at the planner's period
-                                (these are the plan; everything else is derived or context)
-    plan_1khz                   step, interpolation and t, q, qdot, f at 1 ms, as `write_csv`
+    plan                        dt, horizon, channels, units, t and one list per channel (the
+                                scoop's y, ydot, f) at the planner's period (these are the plan;
+                                everything else is derived or context)
+    plan_1khz                   step, interpolation, t and the channels at 1 ms, as `write_csv`
                                 and the simulated controller compute them (9 significant digits)
     problem                     the whole problem (`Problem.to_dict()`: limits, terminal
                                 constraints, weights, environment ranges, judge)
@@ -31,6 +33,7 @@ Non-finite numbers are written as null (strict JSON).
 
 from __future__ import annotations
 
+import io
 import json
 import math
 import os
@@ -44,17 +47,16 @@ from typing import Any, Sequence
 
 import numpy as np
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, atomic_write
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.trajectory import Plan, PlanError
 
-CSV_HEADER = "t [s],q [m],qdot [m/s],f [N]"
 PLAN_FORMAT = "judgeopt-plan"
-PLAN_VERSION = 1
+PLAN_VERSION = 2  # 2: the plan's columns named by the task's channels (1: always q, qdot, f)
 #: the fields `read_plan_json` requires (a file without them is not a usable record)
 REQUIRED_FIELDS = ("format_version", "method", "environment", "plan", "problem", "provenance")
-PLAN_FIELDS = ("dt", "t", "q", "qdot", "f")
+V1_COLUMNS = ("q", "qdot", "f")  # a version-1 file's columns: the scoop's y, ydot, f
 
 
 class PlanFileError(PlanError):
@@ -64,18 +66,12 @@ class PlanFileError(PlanError):
 def write_csv(plan: Plan, path: str | Path, step: float = 1e-3) -> Path:
     """Commands at `step` (1 ms): Hermite-interpolated position/velocity, linear force; the
     same interpolation the simulated controller applies. Written atomically."""
-    t, y, ydot, f = plan.resample(step)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            np.savetxt(fh, np.column_stack([t, y, ydot, f]), delimiter=",", fmt="%.9g", header=CSV_HEADER, comments="")
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    t, x = plan.resample(step)
+    header = ",".join(["t [s]"] + [f"{c.name} [{c.unit}]" for c in plan.channels])
+    buf = io.StringIO()
+    np.savetxt(buf, np.column_stack([t, x]), delimiter=",", fmt="%.9g", header=header, comments="")
+    atomic_write(path, buf.getvalue())
+    return Path(path)
 
 
 def _git(*args: str) -> str | None:
@@ -137,8 +133,9 @@ def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any]
     plan = result.plan
     if plan is None:
         raise PlanError(f"{result.method}: no plan to export (status {result.status}: {result.message})")
-    units = {"t": "s", "q": "m", "qdot": "m/s", "f": "N"}
-    t, y, ydot, f = plan.resample(step)
+    names = [c.name for c in plan.channels]
+    units = {"t": "s", **{c.name: c.unit for c in plan.channels}}
+    t, fine = plan.resample(step)
     prov = dict(provenance)
     role = ("planner" if result.method == "amortized"
             else "warm start" if result.info.get("warm_start") == "generator" else None)
@@ -156,12 +153,14 @@ def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any]
         "simulated_success": result.simulated_success, "simulation": sim or None,
         "max_constraint_violation": result.max_constraint_violation, "worst_constraint": result.worst_constraint,
         "residuals": result.residuals,
-        "plan": {"dt": plan.dt, "horizon": plan.horizon, "units": units,
-                 "t": plan.t, "q": plan.y, "qdot": plan.ydot, "f": plan.f},
+        "plan": {"dt": plan.dt, "horizon": plan.horizon, "channels": names, "units": units, "t": plan.t,
+                 **{n: plan.values[:, j] for j, n in enumerate(names)}},
         "plan_1khz": {"step": step, "units": units,
-                      "interpolation": "cubic Hermite in q through the samples' q and qdot (qdot its derivative), "
-                                       "linear in f: Plan.resample, what the simulated controller applies",
-                      **{k: [float(f"{v:.9g}") for v in a] for k, a in zip(("t", "q", "qdot", "f"), (t, y, ydot, f))}},
+                      "interpolation": "cubic Hermite in each position through the samples' positions and velocities "
+                                       "(each velocity its derivative), linear in the forces: Plan.resample, what the "
+                                       "simulated controller applies",
+                      "t": [float(f"{v:.9g}") for v in t],
+                      **{n: [float(f"{v:.9g}") for v in fine[:, j]] for j, n in enumerate(names)}},
         "problem": problem.to_dict(),
         "provenance": prov,
     }
@@ -211,10 +210,13 @@ def read_plan_record(path: str | Path) -> dict[str, Any]:
     plan = rec["plan"]
     if not isinstance(plan, dict):
         raise PlanFileError(f"{path}: field 'plan' is {type(plan).__name__}, not an object")
-    missing = [k for k in PLAN_FIELDS if k not in plan]
+    columns = V1_COLUMNS if version < 2 else plan.get("channels")
+    if not isinstance(columns, (list, tuple)) or not all(isinstance(c, str) for c in columns):
+        raise PlanFileError(f"{path}: field 'plan.channels' must list the plan's channel names")
+    missing = [k for k in ("dt", "t", *columns) if k not in plan]
     if missing:
         raise PlanFileError(f"{path}: missing field(s) {['plan.' + k for k in missing]}")
-    for k in PLAN_FIELDS[1:]:
+    for k in ("t", *columns):
         v = plan[k]
         if not isinstance(v, list) or not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v):
             raise PlanFileError(f"{path}: field 'plan.{k}' must be a list of numbers (null: a non-finite value)")
@@ -232,15 +234,19 @@ def read_plan_json(path: str | Path) -> Plan:
     dt = p["dt"]
     if not isinstance(dt, (int, float)) or isinstance(dt, bool):
         raise PlanFileError(f"{path}: field 'plan.dt' is {dt!r}, not a number")
+    from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
+
     try:
-        plan = Plan(float(dt), np.array(p["q"], dtype=float), np.array(p["qdot"], dtype=float),
-                    np.array(p["f"], dtype=float))
-    except PlanError as exc:
+        task = get_task(rec["problem"].get("task", DEFAULT_TASK))
+        columns = V1_COLUMNS if rec["format_version"] < 2 else p["channels"]
+        task.check_channels(task.channel_names if rec["format_version"] < 2 else columns, f"{path}")
+        plan = Plan.from_columns(float(dt), task.channels, *(np.array(p[k], dtype=float) for k in columns))
+    except (PlanError, TaskError) as exc:
         raise PlanFileError(f"{path}: {exc}") from None
     t = np.asarray(p["t"], dtype=float)
     if t.shape != plan.t.shape or np.abs(t - plan.t).max() > 1e-9:
         raise PlanFileError(f"{path}: field 'plan.t' ({len(t)} samples) is not k * dt for the "
-                            f"{plan.horizon + 1} samples of q, qdot and f at dt = {plan.dt:g} s")
+                            f"{plan.horizon + 1} samples of the plan at dt = {plan.dt:g} s")
     return plan
 
 

@@ -182,7 +182,7 @@ class AmortizedPlanner:
             out[k] = q, v, f_mid + f_half * o[0]
             v_next = v + a_scale * o[1] * dt
             q, v = q + 0.5 * dt * (v + v_next), v_next
-        return Plan.from_array(self.problem.dt, out)
+        return Plan.from_array(self.problem.dt, out, self.problem.channel_spec)
 
     def solve(self, env: dict[str, float]) -> PlanResult:
         env = self.problem.env_dict(env)

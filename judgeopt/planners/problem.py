@@ -164,8 +164,13 @@ class Problem:
 
     @property
     def channels(self) -> tuple[str, ...]:
-        """The task's channels, the plan's columns."""
+        """The task's channel names, the plan's columns."""
         return get_task(self.task).channel_names
+
+    @property
+    def channel_spec(self) -> tuple:
+        """The task's channels (trajectory.Channel), for building plans."""
+        return get_task(self.task).channels
 
     def nominal_env(self) -> dict[str, float]:
         """Fixed values as given, ranges at their midpoint (what a single solve uses by default)."""

@@ -81,8 +81,8 @@ class PlanResult:
         }
         if self.plan is not None:
             p = self.plan
-            d.update(t=p.t.tolist(), q=p.y.tolist(), qdot=p.ydot.tolist(), f=p.f.tolist(),
-                     units={"t": "s", "q": "m", "qdot": "m/s", "f": "N"})
+            d.update(t=p.t.tolist(), **{c.name: p.values[:, j].tolist() for j, c in enumerate(p.channels)},
+                     channels=[c.name for c in p.channels], units={"t": "s", **{c.name: c.unit for c in p.channels}})
         d.update({k: v for k, v in self.info.items() if k not in d})
         return d
 

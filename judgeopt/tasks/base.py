@@ -16,10 +16,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
-
-KINDS = ("position", "velocity", "force")
-
+from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON, Channel, Plan
 
 class TaskError(ValueError):
     """An unknown task, or data, a model or a plan made for another task."""
@@ -27,22 +24,6 @@ class TaskError(ValueError):
 
 class EnvironmentRangeError(ValueError):
     """An environment value outside what the task's simulator accepts."""
-
-
-@dataclass(frozen=True)
-class Channel:
-    """One signal of a plan and of a response. A velocity names the position it is the rate of."""
-
-    name: str
-    unit: str
-    kind: str  # one of KINDS
-    of: str | None = None  # for a velocity: its position channel
-
-    def __post_init__(self) -> None:
-        if self.kind not in KINDS:
-            raise TaskError(f"channel {self.name!r}: kind {self.kind!r} is not one of {KINDS}")
-        if (self.kind == "velocity") != (self.of is not None):
-            raise TaskError(f"channel {self.name!r}: a velocity names its position (of=...), nothing else does")
 
 
 @dataclass(frozen=True)
@@ -202,6 +183,10 @@ class Task(ABC):
     def demonstrated_bound(self, kind: str) -> tuple[float, float]:
         """The demonstrated range of the first channel of `kind` (position, velocity, force)."""
         return self.demonstrated()[self.channels_of(kind)[0].name]
+
+    def plan(self, values: np.ndarray, dt: float | None = None) -> Plan:
+        """A (horizon + 1, channels) array as this task's Plan (at the task's dt by default)."""
+        return Plan(self.dt if dt is None else dt, values, self.channels)
 
     def describe(self) -> dict[str, Any]:
         return {"name": self.name, "description": self.description,

@@ -13,7 +13,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from judgeopt.tasks.base import Channel, EnvVar, Task, TaskSimulator
+from judgeopt.tasks.base import EnvVar, Task, TaskSimulator
+from judgeopt.trajectory import Channel, Plan
 
 CHANNELS = (Channel("y", "m", "position"), Channel("ydot", "m/s", "velocity", of="y"), Channel("f", "N", "force"))
 ENV_VARS = (
@@ -22,6 +23,13 @@ ENV_VARS = (
     EnvVar("mu", "", physical=(0.01, 5.0), sampled=(1.0, 3.0),
            description="spatula-object friction coefficient (paper Table 3)"),
 )
+
+
+def scoop_plan(dt: float, y: np.ndarray, ydot: np.ndarray, f: np.ndarray) -> Plan:
+    """A scoop plan from its three columns."""
+    return Plan.from_columns(dt, CHANNELS, y, ydot, f)
+
+
 #: the paper's 3 x 3 grid of demonstration environments (IV-B)
 PAPER_GRID = {"y_obj": (0.10, 0.19, 0.28), "mu": (1.0, 2.0, 3.0)}
 
@@ -81,9 +89,8 @@ class ScoopTask(Task):
 
     def render(self, plan: Any, env: Mapping[str, float], out: Any, caption: str = "", simulator: Any = None):
         from judgeopt.tasks.scoop.render import render_rollout
-        from judgeopt.trajectory import Plan
 
-        plan = plan if isinstance(plan, Plan) else Plan.from_array(self.dt, plan)
+        plan = plan if isinstance(plan, Plan) else self.plan(plan)
         sim = simulator or self.simulator()
         return render_rollout(sim, plan, float(env["y_obj"]), float(env["mu"]), out, caption=caption)
 

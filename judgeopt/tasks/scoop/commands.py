@@ -12,6 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from judgeopt.tasks.scoop import scoop_plan
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON, Plan
 
 
@@ -61,4 +62,4 @@ def _draw(rng: np.random.Generator, y_obj: float, cfg: RandomCommandConfig) -> P
     t = np.arange(cfg.horizon + 1) * cfg.dt
     tc = np.minimum(t, t_end)
     moving = t <= t_end
-    return Plan(cfg.dt, ys(tc), np.where(moving, ys.derivative()(tc), 0.0), np.clip(fs(tc), *cfg.force))
+    return scoop_plan(cfg.dt, ys(tc), np.where(moving, ys.derivative()(tc), 0.0), np.clip(fs(tc), *cfg.force))

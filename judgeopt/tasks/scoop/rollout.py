@@ -28,6 +28,7 @@ from judgeopt.sim._quiet import pb
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
 from judgeopt.tasks.scoop.scene import Scene, SceneConfig, check_environment
 from judgeopt.tasks.base import Outcome, TaskSimulator
+from judgeopt.tasks.scoop import CHANNELS
 from judgeopt.trajectory import DEFAULT_DT, Plan, PlanError
 
 #: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
@@ -67,6 +68,10 @@ class RolloutResult:
 
 def check_plan(plan: Plan) -> None:
     """Reject commands the arm cannot follow, naming the value and the allowed range."""
+    names = tuple(c.name for c in plan.channels)
+    if names != tuple(c.name for c in CHANNELS):
+        raise PlanError(f"the plan has channels {', '.join(names)}; the scoop's simulator takes "
+                        f"{', '.join(c.name for c in CHANNELS)}")
     for name, (lo, hi), values in (("y", Y_RANGE, plan.y), ("f", F_RANGE, plan.f)):
         bad = np.flatnonzero((values < lo) | (values > hi))
         if bad.size:
@@ -143,7 +148,7 @@ class Simulator(TaskSimulator):
     def simulate(self, plan: np.ndarray | Plan, env: Mapping[str, float], record: int = 0) -> Outcome:
         """The task interface: a Plan, or a (N + 1, 3) [y, ydot, f] array at the default period."""
         if not isinstance(plan, Plan):
-            plan = Plan.from_array(DEFAULT_DT, plan)
+            plan = Plan.from_array(DEFAULT_DT, plan, CHANNELS)
         r = self.run(plan, float(env["y_obj"]), float(env["mu"]), record=record)
         cfg = self.rollout_config
         # success dominates; below it, rising with the blade and ending near its centre
@@ -179,7 +184,8 @@ class Simulator(TaskSimulator):
             cmd.force_z = plan.f[0] * (i + 1) / n_settle
             advance(cmd)
 
-        t, y_c, yd_c, f_c = plan.resample(step)
+        t, x = plan.resample(step)
+        y_c, yd_c, f_c = x[:, 0], x[:, 1], x[:, 2]
         every = int(round(plan.dt / step))
         resp = np.zeros((plan.horizon + 1, 3))
         vel = np.zeros(6)
