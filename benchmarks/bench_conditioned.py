@@ -44,7 +44,7 @@ def _run(problem, generator: str, envs: np.ndarray, first: int) -> list[dict]:
     """One chunk in a worker process: plan each environment and replay the plan."""
     import torch
 
-    from judgeopt.sim.rollout import Simulator
+    from judgeopt.tasks.scoop.rollout import Simulator
 
     torch.set_num_threads(1)
     if "sim" not in _CACHE:
@@ -91,7 +91,7 @@ def main() -> None:
     args = ap.parse_args()
 
     from judgeopt.planners.store import load_generator_meta, matches
-    from judgeopt.sim.rollout import RolloutConfig
+    from judgeopt.tasks.scoop.rollout import RolloutConfig
 
     base = load_problem(resolve(args.problem)).with_overrides(judge=args.judge_model)
     envs = base.sample_env(np.random.default_rng(args.seed), args.n)

@@ -19,9 +19,9 @@ import time
 import numpy as np
 
 from judgeopt.data.collect import CollectionSpec, collect
-from judgeopt.data.commands import random_command
+from judgeopt.tasks.scoop.commands import random_command
 from judgeopt.sim._quiet import pb
-from judgeopt.sim.rollout import Simulator
+from judgeopt.tasks.scoop.rollout import Simulator
 
 
 def rollout_rates(n: int) -> tuple[float, float]:
@@ -30,13 +30,14 @@ def rollout_rates(n: int) -> tuple[float, float]:
     rng = np.random.default_rng(0)
     plans = [random_command(rng, 0.19) for _ in range(n)]
     torques: list[list[np.ndarray]] = []
-    original = sim._apply
+    original = sim.controller.step
 
-    def recording(tau):
+    def recording(q, ft, cmd):
+        tau = original(q, ft, cmd)
         torques[-1].append(tau)
-        original(tau)
+        return tau
 
-    sim._apply = recording
+    sim.controller.step = recording
     steps = 0
     t0 = time.perf_counter()
     for p in plans:
@@ -44,7 +45,7 @@ def rollout_rates(n: int) -> tuple[float, float]:
         sim.run(p, 0.19, 2.0)
         steps += len(torques[-1])
     closed = steps / (time.perf_counter() - t0)
-    sim._apply = original
+    sim.controller.step = original
 
     t0 = time.perf_counter()
     for p, seq in zip(plans, torques):

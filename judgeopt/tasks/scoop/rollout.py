@@ -25,14 +25,12 @@ import numpy as np
 import pinocchio as pin
 from judgeopt.sim._quiet import pb
 
-from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
+from judgeopt.sim.arm import ArmDriver
+from judgeopt.sim.controller import ControllerConfig, TaskCommand, solve_ik
 from judgeopt.tasks.scoop.scene import Scene, SceneConfig, check_environment
 from judgeopt.tasks.base import Outcome, TaskSimulator
 from judgeopt.tasks.scoop import CHANNELS
 from judgeopt.trajectory import DEFAULT_DT, Plan, PlanError
-
-#: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
-HOME_POSTURE = np.array([-0.816, -1.778, 2.418, -2.211, -1.571, -2.387])
 
 #: reachable range of the commanded TCP y along the scooping line (m), and pressing force (N)
 Y_RANGE = (-0.25, 0.45)
@@ -87,23 +85,17 @@ class Simulator(TaskSimulator):
         self.scene = Scene(scene)
         self.rollout_config = rollout or RolloutConfig()
         g = self.scene.config.spatula
-        self.controller = HybridController(self.scene.urdf_path, payload_weight=(g.handle_mass + g.blade_mass) * 9.81,
-                                           config=controller)
+        self.driver = ArmDriver(self.scene.arm, g, controller)
+        self.controller = self.driver.controller
         self.z_contact = g.tcp_height_on_plate()
-        # PyBullet reports the sensor joint's reaction in its child link's inertial frame,
-        # which it rotates to the principal axes of the URDF's inertia (the handle is tilted):
-        # rotate readings back to the link frame the controller expects
-        orn = pb.getDynamicsInfo(self.scene.robot, self.scene.ft_joint, physicsClientId=self.scene.client)[4]
-        self._sensor_rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
         self._ik_cache: dict[float, np.ndarray] = {}
 
     # -- arm placement -----------------------------------------------------------------
     def home_joints(self, y0: float) -> np.ndarray:
         key = round(float(y0), 9)
         if key not in self._ik_cache:
-            target = pin.SE3(np.eye(3), np.array([self.scene.config.x_home, y0, self.z_contact]))
-            q = solve_ik(self.controller.model, self.controller.tcp, target, HOME_POSTURE)
-            self._ik_cache[key] = (q + np.pi) % (2 * np.pi) - np.pi
+            self._ik_cache[key] = self.driver.joints_for(
+                pin.SE3(np.eye(3), np.array([self.scene.config.x_home, y0, self.z_contact])))
         return self._ik_cache[key]
 
     def reset(self, y0: float, y_obj: float, mu: float, height: float = 0.0) -> None:
@@ -116,33 +108,14 @@ class Simulator(TaskSimulator):
 
     def step(self, cmd: TaskCommand) -> None:
         """One 1 ms control step: read the sensors, compute the torques, step the physics."""
-        q, ft = self._read()
-        self._apply(self.controller.step(q, ft, cmd))
+        self.driver.step(cmd)
 
     def _reset(self, q0: np.ndarray, y_obj: float, mu: float) -> None:
         sc = self.scene
         sc.restore()
-        for j, qi in zip(sc.arm_joints, q0):
-            pb.resetJointState(sc.robot, j, qi, 0.0, physicsClientId=sc.client)
+        self.driver.reset(q0)
         sc.set_mu(mu)
         sc.place_object(y_obj)
-        self.controller.reset(q0)
-        self._sensor_valid = False  # PyBullet reports the last step's joint reaction until the next step
-
-    def _read(self) -> tuple[np.ndarray, np.ndarray | None]:
-        sc = self.scene
-        states = pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)
-        q = np.array([s[0] for s in states])
-        if not self._sensor_valid:
-            self._sensor_valid = True
-            return q, None
-        ft = pb.getJointState(sc.robot, sc.ft_joint, physicsClientId=sc.client)[2]
-        return q, self._sensor_rotation @ np.array(ft[:3])
-
-    def _apply(self, tau: np.ndarray) -> None:
-        sc = self.scene
-        pb.setJointMotorControlArray(sc.robot, sc.arm_joints, pb.TORQUE_CONTROL, forces=tau, physicsClientId=sc.client)
-        pb.stepSimulation(physicsClientId=sc.client)
 
     # -- the rollout -------------------------------------------------------------------
     def simulate(self, plan: np.ndarray | Plan, env: Mapping[str, float], record: int = 0) -> Outcome:

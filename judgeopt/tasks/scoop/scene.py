@@ -13,20 +13,11 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from judgeopt.sim._quiet import c_stdout_to_stderr, pb
-
-from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
+from judgeopt.sim._quiet import pb
+from judgeopt.sim.arm import connect, load_arm
+from judgeopt.sim.robot import SpatulaGeometry
 from judgeopt.tasks.base import EnvironmentRangeError
 from judgeopt.tasks.scoop import ENV_VARS
-
-ARM_JOINTS = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
-)
 
 #: physical range of the environment variables the scene accepts
 ENV_RANGES = {v.name: v.physical for v in ENV_VARS}
@@ -96,30 +87,15 @@ class Scene:
 
     def __init__(self, config: SceneConfig | None = None):
         self.config = cfg = config or SceneConfig()
-        self.client = c = pb.connect(pb.DIRECT)
-        pb.setGravity(0, 0, -9.81, physicsClientId=c)
-        pb.setPhysicsEngineParameter(
-            fixedTimeStep=cfg.timestep, numSolverIterations=cfg.solver_iterations, deterministicOverlappingPairs=1,
-            physicsClientId=c,
-        )
+        self.client = c = connect(cfg.timestep, cfg.solver_iterations)
         if cfg.plant_inertia not in PLANT_INERTIA:
             raise ValueError(f"plant_inertia = {cfg.plant_inertia!r}; choose one of {PLANT_INERTIA}")
-        self.urdf_path = robot_urdf(cfg.spatula, wrist_inertia=cfg.wrist_inertia)
-        flags = pb.URDF_USE_INERTIA_FROM_FILE if cfg.plant_inertia == "urdf" else 0
-        with c_stdout_to_stderr():  # URDF warnings about the massless root link
-            self.robot = pb.loadURDF(str(self.urdf_path), useFixedBase=True, flags=flags, physicsClientId=c)
-        names = {pb.getJointInfo(self.robot, j, physicsClientId=c)[1].decode(): j for j in range(pb.getNumJoints(self.robot, physicsClientId=c))}
-        links = {pb.getJointInfo(self.robot, j, physicsClientId=c)[12].decode(): j for j in names.values()}
-        self.arm_joints = [names[n] for n in ARM_JOINTS]
-        self.ft_joint = names["ft_sensor_joint"]
+        self.arm = load_arm(c, cfg.spatula, cfg.wrist_inertia, inertia_from_file=cfg.plant_inertia == "urdf")
+        self.robot, self.urdf_path = self.arm.robot, self.arm.urdf_path
+        self.arm_joints, self.ft_joint = self.arm.arm_joints, self.arm.ft_joint
+        links = self.arm.links
         self.blade_top, self.blade_bottom, self.handle = links["blade_top"], links["blade_bottom"], links["spatula"]
         self.tcp_link = links["tcp"]
-        # the arm itself never touches anything in this task: only the spatula collides
-        for j in range(-1, pb.getNumJoints(self.robot, physicsClientId=c)):
-            pb.setCollisionFilterGroupMask(self.robot, j, 0, 0, physicsClientId=c)
-        for j in self.arm_joints:  # torque control: switch off the default velocity motors
-            pb.setJointMotorControl2(self.robot, j, pb.VELOCITY_CONTROL, force=0, physicsClientId=c)
-        pb.enableJointForceTorqueSensor(self.robot, self.ft_joint, True, physicsClientId=c)
 
         plate_half = [0.2, 0.45, 0.05]  # thick, so a deep press into the soft mat never tunnels through
         col = pb.createCollisionShape(pb.GEOM_BOX, halfExtents=plate_half, physicsClientId=c)

@@ -1,0 +1,114 @@
+"""The simulated UR5 with its spatula, shared by every task's scene: loading it into a PyBullet
+client, and the plant side of the control loop (read the joints and the wrist sensor, apply the
+hybrid controller's torques, step the physics).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+
+from judgeopt.sim._quiet import c_stdout_to_stderr, pb
+from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
+from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
+
+ARM_JOINTS = (
+    "shoulder_pan_joint",
+    "shoulder_lift_joint",
+    "elbow_joint",
+    "wrist_1_joint",
+    "wrist_2_joint",
+    "wrist_3_joint",
+)
+#: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
+HOME_POSTURE = np.array([-0.816, -1.778, 2.418, -2.211, -1.571, -2.387])
+
+
+def connect(timestep: float, solver_iterations: int) -> int:
+    """A PyBullet DIRECT client with gravity and a deterministic, fixed-step solver."""
+    c = pb.connect(pb.DIRECT)
+    pb.setGravity(0, 0, -9.81, physicsClientId=c)
+    pb.setPhysicsEngineParameter(fixedTimeStep=timestep, numSolverIterations=solver_iterations,
+                                 deterministicOverlappingPairs=1, physicsClientId=c)
+    return c
+
+
+@dataclass
+class ArmBody:
+    """The arm in a client: its body id, URDF, joint and link indices by name."""
+
+    client: int
+    robot: int
+    urdf_path: Path
+    arm_joints: list[int]
+    ft_joint: int
+    links: dict[str, int]
+
+
+def load_arm(client: int, spatula: SpatulaGeometry, wrist_inertia: str = "universal_robots",
+             inertia_from_file: bool = True) -> ArmBody:
+    """Load the arm; nothing of it collides until a task gives its spatula links collision layers.
+    `inertia_from_file`: PyBullet integrates the URDF's inertias (the ones the controller's
+    model reads; docs/physics.md), not ones derived from the collision shapes."""
+    urdf_path = robot_urdf(spatula, wrist_inertia=wrist_inertia)
+    flags = pb.URDF_USE_INERTIA_FROM_FILE if inertia_from_file else 0
+    with c_stdout_to_stderr():  # URDF warnings about the massless root link
+        robot = pb.loadURDF(str(urdf_path), useFixedBase=True, flags=flags, physicsClientId=client)
+    n = pb.getNumJoints(robot, physicsClientId=client)
+    names = {pb.getJointInfo(robot, j, physicsClientId=client)[1].decode(): j for j in range(n)}
+    links = {pb.getJointInfo(robot, j, physicsClientId=client)[12].decode(): j for j in names.values()}
+    body = ArmBody(client, robot, urdf_path, [names[j] for j in ARM_JOINTS], names["ft_sensor_joint"], links)
+    for j in range(-1, n):
+        pb.setCollisionFilterGroupMask(robot, j, 0, 0, physicsClientId=client)
+    for j in body.arm_joints:  # torque control: switch off the default velocity motors
+        pb.setJointMotorControl2(robot, j, pb.VELOCITY_CONTROL, force=0, physicsClientId=client)
+    pb.enableJointForceTorqueSensor(robot, body.ft_joint, True, physicsClientId=client)
+    return body
+
+
+class ArmDriver:
+    """The hybrid controller closed around the simulated arm, one 1 ms step at a time."""
+
+    def __init__(self, body: ArmBody, spatula: SpatulaGeometry, config: ControllerConfig | None = None):
+        self.body = body
+        self.controller = HybridController(body.urdf_path, payload_weight=(spatula.handle_mass + spatula.blade_mass)
+                                           * 9.81, config=config)
+        # PyBullet reports the sensor joint's reaction in its child link's inertial frame,
+        # which it rotates to the principal axes of the URDF's inertia (the handle is tilted):
+        # rotate readings back to the link frame the controller expects
+        orn = pb.getDynamicsInfo(body.robot, body.ft_joint, physicsClientId=body.client)[4]
+        self.sensor_rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
+        self._sensor_valid = False
+
+    def joints_for(self, target: pin.SE3, start: np.ndarray = HOME_POSTURE) -> np.ndarray:
+        """Joint angles placing the TCP at `target` (wrapped to [-pi, pi))."""
+        q = solve_ik(self.controller.model, self.controller.tcp, target, start)
+        return (q + np.pi) % (2 * np.pi) - np.pi
+
+    def reset(self, q0: np.ndarray) -> None:
+        b = self.body
+        for j, qi in zip(b.arm_joints, q0):
+            pb.resetJointState(b.robot, j, qi, 0.0, physicsClientId=b.client)
+        self.controller.reset(q0)
+        self._sensor_valid = False  # PyBullet reports the last step's joint reaction until the next step
+
+    def read(self) -> tuple[np.ndarray, np.ndarray | None]:
+        b = self.body
+        states = pb.getJointStates(b.robot, b.arm_joints, physicsClientId=b.client)
+        q = np.array([s[0] for s in states])
+        if not self._sensor_valid:
+            self._sensor_valid = True
+            return q, None
+        ft = pb.getJointState(b.robot, b.ft_joint, physicsClientId=b.client)[2]
+        return q, self.sensor_rotation @ np.array(ft[:3])
+
+    def step(self, cmd: TaskCommand) -> None:
+        """Read the sensors, compute the torques, step the physics."""
+        q, ft = self.read()
+        tau = self.controller.step(q, ft, cmd)
+        b = self.body
+        pb.setJointMotorControlArray(b.robot, b.arm_joints, pb.TORQUE_CONTROL, forces=tau, physicsClientId=b.client)
+        pb.stepSimulation(physicsClientId=b.client)
