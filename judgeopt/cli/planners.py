@@ -11,6 +11,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from judgeopt.cli.common import command_line, value_range
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
@@ -70,8 +72,9 @@ def _table(results) -> str:
         p = f"{r.success_probability:.3f} ({r.probability_source}" + (
             "; calibration does not cover this)" if r.info.get("calibrated_success") is not None
             and r.probability_source == "judge" else ")")
-        rows.append((r.method, f"{r.predicted_success:.3f}", p, r.verdict, sim, f"{r.plan.ydot.max():.3f}",
-                     f"{r.plan.f.min():.1f} to {r.plan.f.max():.1f}", viol,
+        v, f = (r.plan.values[:, r.plan.columns(kind)] for kind in ("velocity", "force"))
+        rows.append((r.method, f"{r.predicted_success:.3f}", p, r.verdict, sim, f"{v.max():.3f}",
+                     f"{f.min():.1f} to {f.max():.1f}", viol,
                      r.status + (f" ({r.iterations} it)" if r.iterations is not None else ""),
                      f"{t * 1e3:.1f} ms" if t < 1 else f"{t:.2f} s"))
     widths = [max(len(str(row[i])) for row in rows) for i in range(len(head))]
@@ -81,9 +84,11 @@ def _table(results) -> str:
 
 
 def _plan_rows(plan, every: int = 5) -> str:
-    rows = ["   t [s]   q [m]  q̇ [m/s]   f [N]"]
+    heads = ["t [s]"] + [f"{c.name} [{c.unit}]" for c in plan.channels]
+    width = max(9, max(len(h) for h in heads) + 1)
+    rows = ["".join(h.rjust(width) for h in heads)]
     for k in range(0, plan.horizon + 1, every):
-        rows.append(f"{plan.t[k]:8.2f} {plan.y[k]:7.3f} {plan.ydot[k]:8.3f} {plan.f[k]:7.1f}")
+        rows.append(f"{plan.t[k]:{width}.2f}" + "".join(f"{x:{width}.3f}" for x in plan.values[k]))
     return "\n".join(rows)
 
 
@@ -161,8 +166,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
                           "results": [r.to_json() for r in results]}))
     else:
         envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
-        print(f"{problem.name}: q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in [{problem.f_min}, "
-              f"{problem.f_max}] N, q from {problem.q0} to {problem.terminal_position(env):g} m in "
+        ends = ", ".join("free" if np.isnan(e) else f"{e:g}" for e in problem.terminal_positions(env))
+        print(f"{problem.name} ({problem.task}): q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in "
+              f"[{problem.f_min}, {problem.f_max}] N, q from {problem.q0} to {ends} m in "
               f"{problem.horizon_time:g} s; environment {envs}")
         for note in planners.notes:
             print(f"note: {note}")

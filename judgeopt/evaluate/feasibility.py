@@ -42,7 +42,7 @@ def env_rng(problem: Problem, env: dict[str, float], seed: int, stream: int) -> 
     return np.random.default_rng([seed, stream, key])
 
 
-def _valid(commands: SplineCommands, q_end: float, n: int, draw) -> tuple[np.ndarray, np.ndarray]:
+def _valid(commands: SplineCommands, q_end: np.ndarray, n: int, draw) -> tuple[np.ndarray, np.ndarray]:
     """n knot vectors from draw(n) whose plans end within TERMINAL_TOL of q_end (clipping to the
     velocity limits can spoil a draw's end), and their plans; fewer only if 50 n draws miss."""
     zs, xs = [], []
@@ -61,7 +61,7 @@ def random_plans(problem: Problem, env: dict[str, float], n: int, seed: int, kno
     """n random plans, uniform in the knots, that satisfy the limits and end at q_end."""
     commands = SplineCommands(problem, knots)
     rng = env_rng(problem, env, seed, 101)
-    _, x = _valid(commands, problem.terminal_position(env), n, lambda k: rng.uniform(0.0, 1.0, (k, commands.dim)))
+    _, x = _valid(commands, problem.terminal_positions(env), n, lambda k: rng.uniform(0.0, 1.0, (k, commands.dim)))
     return [Plan.from_array(problem.dt, xi, problem.channel_spec) for xi in x]
 
 
@@ -90,7 +90,7 @@ def search(problem: Problem, env: dict[str, float], sim, seed: int, cfg: SearchC
                 "simulated_success": None, "tries": 0}
     commands = SplineCommands(problem, cfg.knots)
     rng = env_rng(problem, env, seed, 202)
-    q_end = problem.terminal_position(env)
+    q_end = problem.terminal_positions(env)
     mean, std = np.full(commands.dim, 0.5), np.full(commands.dim, cfg.init_std)
     tries = 0
     for _ in range(cfg.iterations):

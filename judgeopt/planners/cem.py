@@ -24,6 +24,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from judgeopt.judge.model import Judge
+from judgeopt.planners.dynamics import channel_order
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
@@ -42,9 +43,10 @@ class CEMConfig:
 
 
 class SplineCommands:
-    """Plans from 2K numbers in [0, 1]: K velocity knots and K force knots mapped onto the
-    limits (the module docstring). Shared by the CEM baseline, the no-judge baseline and the
-    feasibility search in simulation, so all three search the same space of plans."""
+    """Plans from (axes + forces) K numbers in [0, 1]: K velocity knots per axis and K knots per
+    force channel, mapped onto the limits (the module docstring). Shared by the CEM baseline,
+    the no-judge baseline and the feasibility search in simulation, so all three search the same
+    space of plans."""
 
     def __init__(self, problem: Problem, knots: int):
         self.problem, self.knots = problem, knots
@@ -59,29 +61,40 @@ class SplineCommands:
 
     @property
     def dim(self) -> int:
-        return 2 * self.knots
+        return (self.problem.n_axes + self.problem.n_forces) * self.knots
 
-    def decode(self, z: np.ndarray, q_end: float) -> tuple[np.ndarray, np.ndarray]:
-        """(B, 2K) knots in [0, 1] -> (B, N + 1, 3) plans [q, q̇, f] and each one's penalty
-        (terminal position error plus position-limit violation, in m)."""
+    def decode(self, z: np.ndarray, q_end: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """(B, dim) knots in [0, 1] -> (B, N + 1, channels) plans in the task's channel order, and
+        each one's penalty (terminal position errors plus position-limit violations, in m).
+        `q_end`: the end per axis (nan: free)."""
         pr, k, dt = self.problem, self.knots, self.problem.dt
-        vk = pr.qdot_min + z[:, :k] * (pr.qdot_max - pr.qdot_min)
-        ends = np.column_stack([np.full(len(z), pr.qdot0), vk, np.full(len(z), pr.qdot_end)])
-        v = ends @ self._vel_basis.T
-
-        def travel(vel: np.ndarray) -> np.ndarray:
-            return 0.5 * dt * (vel[:, :-1] + vel[:, 1:]).sum(axis=1)
-
+        ends_q = np.atleast_1d(np.asarray(q_end, dtype=float))
+        lim = {n: pr.vec(n) for n in ("q0", "qdot0", "qdot_end", "qdot_min", "qdot_max", "q_min", "q_max",
+                                      "f_min", "f_max")}
         bump_travel = 0.5 * dt * (self._bump[:-1] + self._bump[1:]).sum()
-        v = v + ((q_end - pr.q0 - travel(v)) / bump_travel)[:, None] * self._bump
-        v = np.clip(v, pr.qdot_min, pr.qdot_max)
-        v[:, 0], v[:, -1] = pr.qdot0, pr.qdot_end
-        q = pr.q0 + np.concatenate([np.zeros((len(z), 1)), np.cumsum(0.5 * dt * (v[:, :-1] + v[:, 1:]), axis=1)], 1)
-        fk = pr.f_min + z[:, k:] * (pr.f_max - pr.f_min)
-        f = PchipInterpolator(self._force_nodes, fk, axis=1)(self._s)
-        penalty = (np.abs(q[:, -1] - q_end) + np.maximum(q - pr.q_max, 0).max(1)
-                   + np.maximum(pr.q_min - q, 0).max(1))
-        return np.stack([q, v, f], axis=2), penalty
+        qs, vs, fs = [], [], []
+        penalty = np.zeros(len(z))
+        for i in range(pr.n_axes):
+            vk = lim["qdot_min"][i] + z[:, i * k:(i + 1) * k] * (lim["qdot_max"][i] - lim["qdot_min"][i])
+            ends = np.column_stack([np.full(len(z), lim["qdot0"][i]), vk, np.full(len(z), lim["qdot_end"][i])])
+            v = ends @ self._vel_basis.T
+            if not np.isnan(ends_q[i]):  # a half-sine correction so the position ends there
+                travel = 0.5 * dt * (v[:, :-1] + v[:, 1:]).sum(axis=1)
+                v = v + ((ends_q[i] - lim["q0"][i] - travel) / bump_travel)[:, None] * self._bump
+            v = np.clip(v, lim["qdot_min"][i], lim["qdot_max"][i])
+            v[:, 0], v[:, -1] = lim["qdot0"][i], lim["qdot_end"][i]
+            q = lim["q0"][i] + np.concatenate([np.zeros((len(z), 1)), np.cumsum(0.5 * dt * (v[:, :-1] + v[:, 1:]),
+                                                                                 axis=1)], 1)
+            terminal = np.abs(q[:, -1] - ends_q[i]) if not np.isnan(ends_q[i]) else 0.0
+            penalty = penalty + (terminal + np.maximum(q - lim["q_max"][i], 0).max(1)
+                                 + np.maximum(lim["q_min"][i] - q, 0).max(1))
+            qs.append(q)
+            vs.append(v)
+        for j in range(pr.n_forces):
+            first = (pr.n_axes + j) * k
+            fk = lim["f_min"][j] + z[:, first:first + k] * (lim["f_max"][j] - lim["f_min"][j])
+            fs.append(PchipInterpolator(self._force_nodes, fk, axis=1)(self._s))
+        return np.stack(qs + vs + fs, axis=2)[:, :, channel_order(pr)], penalty
 
 
 class CEMPlanner:
@@ -104,7 +117,7 @@ class CEMPlanner:
         # seeded by the environment too, so a plan does not depend on which other plans ran first
         key = zlib.crc32(np.asarray([env[n] for n in pr.env_names], dtype=np.float64).tobytes())
         rng = np.random.default_rng([cfg.seed, key])
-        q_end = pr.terminal_position(env)
+        q_end = pr.terminal_positions(env)
         e = np.repeat(judge_env(self.judge, env)[None], cfg.population, axis=0)
         dim = self.commands.dim
         mean, std = np.full(dim, 0.5), np.full(dim, cfg.init_std)

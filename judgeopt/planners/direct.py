@@ -26,7 +26,7 @@ import numpy as np
 from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
-from judgeopt.planners.dynamics import accelerations
+from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
@@ -47,18 +47,25 @@ def judge_env(judge: Judge, env: dict[str, float]) -> np.ndarray:
 
 
 def default_guess(problem: Problem, env: dict[str, float]) -> Plan:
-    """The documented warm start when no generator is available: a minimum-jerk move from q0
-    to q_end over the horizon (velocity clipped to the limits), pressing at the middle of the
-    force range."""
+    """The documented warm start when no generator is available: per axis a minimum-jerk move
+    from q0 to q_end (a free end: the middle of the position limits) over the horizon (velocity
+    clipped to the limits), pressing at the middle of the force range."""
     n, dt = problem.steps, problem.dt
     s = np.linspace(0.0, 1.0, n + 1)
-    d = problem.terminal_position(env) - problem.q0
     T = n * dt
-    v = np.clip(d / T * (30 * s**2 - 60 * s**3 + 30 * s**4), problem.qdot_min, problem.qdot_max)
-    v[0], v[-1] = problem.qdot0, problem.qdot_end
-    q = problem.q0 + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[:-1] + v[1:]))])
-    f = np.full(n + 1, 0.5 * (problem.f_min + problem.f_max))
-    return Plan.from_columns(dt, problem.channel_spec, q, v, f)
+    ends = problem.terminal_positions(env)
+    q0, qd0, qd_end = problem.vec("q0"), problem.vec("qdot0"), problem.vec("qdot_end")
+    lo, hi = problem.vec("qdot_min"), problem.vec("qdot_max")
+    qs, vs = [], []
+    for i in range(problem.n_axes):
+        end = ends[i] if not np.isnan(ends[i]) else 0.5 * (problem.vec("q_min")[i] + problem.vec("q_max")[i])
+        d = end - q0[i]
+        v = np.clip(d / T * (30 * s**2 - 60 * s**3 + 30 * s**4), lo[i], hi[i])
+        v[0], v[-1] = qd0[i], qd_end[i]
+        qs.append(q0[i] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[:-1] + v[1:]))]))
+        vs.append(v)
+    f = [np.full(n + 1, m) for m in 0.5 * (problem.vec("f_min") + problem.vec("f_max"))]
+    return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
 
 
 @dataclass
@@ -90,43 +97,55 @@ class DirectPlanner:
 
     def _build(self) -> None:
         pr, n, dt = self.problem, self.problem.steps, self.problem.dt
-        zq, zv, za, zf = (cs.MX.sym(name, size) for name, size in (("q", n), ("v", n), ("a", n), ("f", n + 1)))
-        self._sizes = (n, n, n, n + 1)
+        na, nf = pr.n_axes, pr.n_forces
+        # one column per axis (force channel); vectorised column by column, so one axis is one vector
+        zq, zv, za, zf = (cs.MX.sym(name, rows, cols) for name, rows, cols in (
+            ("q", n, na), ("v", n, na), ("a", n, na), ("f", n + 1, nf)))
         q, v, a, f = SCALE_Q * zq, SCALE_V * zv, SCALE_A * za, SCALE_F * zf
         env = cs.MX.sym("env", self.cjudge.n_env)
-        q_end = cs.MX.sym("q_end")
-        qs = cs.vertcat(pr.q0, q)
-        vs = cs.vertcat(pr.qdot0, v)
+        self._fixed = ~np.isnan(pr.terminal_positions({k: 0.0 for k in pr.env_names}))  # axes with an end
+        q_end = cs.MX.sym("q_end", int(self._fixed.sum()))
+        qs = cs.vertcat(cs.DM(pr.vec("q0")).T if na > 1 else pr.vec("q0")[0], q)
+        vs = cs.vertcat(cs.DM(pr.vec("qdot0")).T if na > 1 else pr.vec("qdot0")[0], v)
         # integration as constraints, scaled by the step's typical size
-        g_vel = (vs[1:] - vs[:-1] - a * dt) / (SCALE_V)
-        g_pos = (qs[1:] - qs[:-1] - 0.5 * dt * (vs[:-1] + vs[1:])) / (SCALE_Q * 0.1)
-        g_term = cs.vertcat((qs[-1] - q_end) / SCALE_Q, (vs[-1] - pr.qdot_end) / SCALE_V)
-        traj = cs.reshape(cs.horzcat(qs, vs, f).T, -1, 1)  # row-major [y, ydot, f] per sample
+        g_vel = cs.vec((vs[1:, :] - vs[:-1, :] - a * dt) / (SCALE_V))
+        g_pos = cs.vec((qs[1:, :] - qs[:-1, :] - 0.5 * dt * (vs[:-1, :] + vs[1:, :])) / (SCALE_Q * 0.1))
+        ends = [(qs[-1, i] - q_end[j]) / SCALE_Q for j, i in enumerate(np.flatnonzero(self._fixed))]
+        qd_end = pr.vec("qdot_end")
+        g_term = cs.vertcat(*ends, *[(vs[-1, i] - qd_end[i]) / SCALE_V for i in range(na)])
+        parts = [qs[:, i] for i in range(na)] + [vs[:, i] for i in range(na)] + [f[:, i] for i in range(nf)]
+        traj = cs.reshape(cs.horzcat(*[parts[k] for k in channel_order(pr)]).T, -1, 1)  # row-major, channel order
         logit = self.cjudge.fn(traj, env)[0] if not self.members else self._pessimistic(traj, env)
         neg_log_p = cs.fmax(-logit, 0) + cs.log1p(cs.exp(-cs.fabs(logit)))  # softplus(-logit), stable
-        obj = pr.P * neg_log_p + pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(cs.diff(f)) / dt
+        rate = cs.diff(f) if nf == 1 else f[1:, :] - f[:-1, :]
+        obj = pr.P * neg_log_p + pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(rate) / dt
         g = [g_vel, g_pos, g_term]
         if pr.p_min is not None:
             g.append(logit)
         if pr.trust_region is not None:
             g.append(self.trust.casadi_distance2(traj) / pr.trust_region ** 2)  # <= 1
-        x = cs.vertcat(zq, zv, za, zf)
+        x = cs.vertcat(cs.vec(zq), cs.vec(zv), cs.vec(za), cs.vec(zf))
         nlp = {"x": x, "p": cs.vertcat(env, q_end), "f": obj, "g": cs.vertcat(*g)}
         opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": pr.max_iter,
                 "ipopt.tol": pr.tol, "ipopt.constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 0,
                 "ipopt.print_level": self.options.print_level, "ipopt.max_cpu_time": self.options.max_cpu_time,
                 "ipopt.sb": "yes", "print_time": False}
         self.solver = cs.nlpsol("judgeopt_direct", "ipopt", nlp, opts)
-        self._n_eq = 2 * n + 2
+        self._n_eq = 2 * n * na + int(self._fixed.sum()) + na
         self._bounds()
 
     def _bounds(self) -> None:
         """Variable bounds from the problem's limits, and the constraint bounds."""
         pr, n = self.problem, self.problem.steps
-        lb = np.concatenate([np.full(n, pr.q_min / SCALE_Q), np.full(n, pr.qdot_min / SCALE_V), np.full(n, -np.inf),
-                             np.full(n + 1, pr.f_min / SCALE_F)])
-        ub = np.concatenate([np.full(n, pr.q_max / SCALE_Q), np.full(n, pr.qdot_max / SCALE_V), np.full(n, np.inf),
-                             np.full(n + 1, pr.f_max / SCALE_F)])
+
+        def column(values: np.ndarray, rows: int, scale: float) -> np.ndarray:  # one block per axis
+            return np.concatenate([np.full(rows, x / scale) for x in values])
+
+        free = np.full(pr.n_axes, np.inf)
+        lb = np.concatenate([column(pr.vec("q_min"), n, SCALE_Q), column(pr.vec("qdot_min"), n, SCALE_V),
+                             column(-free, n, 1.0), column(pr.vec("f_min"), n + 1, SCALE_F)])
+        ub = np.concatenate([column(pr.vec("q_max"), n, SCALE_Q), column(pr.vec("qdot_max"), n, SCALE_V),
+                             column(free, n, 1.0), column(pr.vec("f_max"), n + 1, SCALE_F)])
         self._lbx, self._ubx = lb, ub
         self._lbg = np.zeros(self._n_eq)
         self._ubg = np.zeros(self._n_eq)
@@ -161,15 +180,18 @@ class DirectPlanner:
         return mean - self.problem.pessimism * cs.sqrt(var + 1e-9)
 
     def _pack(self, plan: Plan) -> np.ndarray:
-        a = accelerations(plan.ydot, plan.dt)
-        return np.concatenate([plan.y[1:] / SCALE_Q, plan.ydot[1:] / SCALE_V, a / SCALE_A, plan.f / SCALE_F])
+        q, v, f = (plan.values[:, plan.columns(kind)] for kind in ("position", "velocity", "force"))
+        a = accelerations(v, plan.dt)
+        return np.concatenate([q[1:].T.ravel() / SCALE_Q, v[1:].T.ravel() / SCALE_V, a.T.ravel() / SCALE_A,
+                               f.T.ravel() / SCALE_F])
 
     def _unpack(self, x: np.ndarray) -> Plan:
-        n = self.problem.steps
-        q = np.concatenate([[self.problem.q0], x[:n] * SCALE_Q])
-        v = np.concatenate([[self.problem.qdot0], x[n:2 * n] * SCALE_V])
-        f = x[3 * n:] * SCALE_F
-        return Plan.from_columns(self.problem.dt, self.problem.channel_spec, q, v, f)
+        pr, n = self.problem, self.problem.steps
+        na, nf = pr.n_axes, pr.n_forces
+        q = np.vstack([pr.vec("q0"), x[:n * na].reshape(na, n).T * SCALE_Q])
+        v = np.vstack([pr.vec("qdot0"), x[n * na:2 * n * na].reshape(na, n).T * SCALE_V])
+        f = x[3 * n * na:].reshape(nf, n + 1).T * SCALE_F
+        return plan_from_parts(pr, q, v, f)
 
     def solve(self, env: dict[str, float], guess: Plan | None = None) -> PlanResult:
         """Solve for one environment; infeasible limits are reported without calling Ipopt."""
@@ -181,7 +203,7 @@ class DirectPlanner:
         warm = "generator" if guess is not None else "min-jerk guess"
         guess = guess if guess is not None else default_guess(pr, env)
         x0 = np.clip(self._pack(guess), self._lbx, self._ubx)
-        p = np.concatenate([judge_env(self.judge, env), [pr.terminal_position(env)]])
+        p = np.concatenate([judge_env(self.judge, env), pr.terminal_positions(env)[self._fixed]])
         sol = self.solver(x0=x0, p=p, lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
         elapsed = time.perf_counter() - t0
         stats = self.solver.stats()

@@ -1,4 +1,4 @@
-"""The point-mass model both planners share: piecewise-constant acceleration along y.
+"""The point-mass model both planners share: piecewise-constant acceleration along each axis.
 
 Per step k = 1..N, with a_k the acceleration over [t_{k-1}, t_k]:
     q̇_k = q̇_{k-1} + a_k dt,    q_k = q_{k-1} + dt (q̇_{k-1} + q̇_k) / 2.
@@ -12,6 +12,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from judgeopt.planners.problem import Problem
+from judgeopt.trajectory import Plan
+
 
 def integrate(q0: float, qdot0: float, acc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """(q, q̇) at the N + 1 sample times from the N accelerations."""
@@ -22,10 +25,26 @@ def integrate(q0: float, qdot0: float, acc: np.ndarray, dt: float) -> tuple[np.n
 
 
 def accelerations(qdot: np.ndarray, dt: float) -> np.ndarray:
-    return np.diff(np.asarray(qdot, dtype=float)) / dt
+    return np.diff(np.asarray(qdot, dtype=float), axis=0) / dt
 
 
 def dynamics_residual(q: np.ndarray, qdot: np.ndarray, dt: float) -> float:
     """Worst violation of the position update given the velocities (0 for integrated plans)."""
     q, qdot = np.asarray(q, float), np.asarray(qdot, float)
     return float(np.max(np.abs(np.diff(q) - 0.5 * dt * (qdot[:-1] + qdot[1:])), initial=0.0))
+
+
+def plan_from_parts(problem: Problem, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> Plan:
+    """A plan from (N + 1, axes) positions and velocities and (N + 1, forces) forces, its columns
+    in the task's channel order."""
+    return Plan.from_array(problem.dt, np.concatenate([q, v, f], axis=1)[:, channel_order(problem)],
+                           problem.channel_spec)
+
+
+def channel_order(problem: Problem) -> list[int]:
+    """For each of the task's channels, its column in [positions, velocities, forces]."""
+    chans = problem.channel_spec
+    pos = [c.name for c in chans if c.kind == "position"]
+    forces = [c.name for c in chans if c.kind == "force"]
+    return [pos.index(c.name) if c.kind == "position" else len(pos) + pos.index(c.of) if c.kind == "velocity"
+            else 2 * len(pos) + forces.index(c.name) for c in chans]

@@ -258,13 +258,18 @@ def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    rows = [("q", "position q [m]", problem.q_min, problem.q_max),
-            ("qdot", "velocity q̇ [m/s]", problem.qdot_min, problem.qdot_max),
-            ("f", "force f [N]", problem.f_min, problem.f_max)]
-    fig, axes = plt.subplots(3, 1, figsize=(6.4, 7.2), sharex=True)
+    bounds = {"position": ("q_min", "q_max"), "velocity": ("qdot_min", "qdot_max"), "force": ("f_min", "f_max")}
+    rows = []
+    for c in problem.channel_spec:  # one panel per channel, its limits shaded
+        same_kind = [d.name for d in problem.channel_spec if d.kind == c.kind]
+        i = [d.name for d in problem.channel_spec if d.kind == "position"].index(c.of) if c.kind == "velocity" \
+            else same_kind.index(c.name)
+        lo, hi = (float(problem.vec(b)[i]) for b in bounds[c.kind])
+        rows.append((c, f"{c.kind} {c.name} [{c.unit}]", lo, hi, i))
+    fig, axes = plt.subplots(len(rows), 1, figsize=(6.4, 2.4 * len(rows)), sharex=True)
     T = problem.horizon_time
-    for ax, (key, label, lo, hi) in zip(axes, rows):
-        values = [getattr(r.plan, {"q": "y", "qdot": "ydot", "f": "f"}[key]) for r in results if r.plan is not None]
+    for ax, (channel, label, lo, hi, axis) in zip(axes, rows):
+        values = [getattr(r.plan, channel.name) for r in results if r.plan is not None]
         span = max(hi - lo, 1e-9)
         top = max([hi + 0.15 * span] + [float(v.max()) for v in values])
         bottom = min([lo - 0.15 * span] + [float(v.min()) for v in values])
@@ -274,12 +279,13 @@ def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path
         for r in results:
             if r.plan is None:
                 continue
-            v = getattr(r.plan, {"q": "y", "qdot": "ydot", "f": "f"}[key])
+            v = getattr(r.plan, channel.name)
             p = (f", p = {r.success_probability:.2f} ({r.probability_source}), {r.verdict}"
                  if r.success_probability is not None else "")
             ax.plot(r.plan.t, v, marker=".", ms=3, label=f"{r.method}{p}")
-        if key == "q" and results:
-            ax.axhline(problem.terminal_position(results[0].env), color="k", ls=":", lw=1, label="q_end")
+        end = problem.terminal_positions(results[0].env)[axis] if results and channel.kind == "position" else np.nan
+        if not np.isnan(end):
+            ax.axhline(end, color="k", ls=":", lw=1, label="q_end")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, loc="upper left")

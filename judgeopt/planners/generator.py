@@ -27,6 +27,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from judgeopt.planners.dynamics import channel_order, plan_from_parts
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges, limits_of
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals
@@ -44,21 +45,30 @@ class GeneratorConfig:
         return asdict(self)
 
 
+def _scalar(values: np.ndarray):
+    """One axis: a float (the arithmetic of the one-axis generators trained before tasks);
+    several: a float32 tensor that broadcasts over the axes."""
+    values = np.asarray(values, dtype=float)
+    return float(values[0]) if values.size == 1 else torch.tensor(values, dtype=torch.float32)
+
+
 class Generator(nn.Module):
-    """state + environment (+ limits, when conditioned) -> (f_k, a_{k+1}); `rollout` makes whole
-    plans in a batch."""
+    """state (positions, velocities per axis) + time + environment (+ limits, when conditioned)
+    -> (forces f_k, accelerations a_{k+1} per axis); `rollout` makes whole plans in a batch."""
 
     def __init__(self, problem: Problem, config: GeneratorConfig | None = None,
                  conditioned: LimitRanges | None = None):
         super().__init__()
         self.problem, self.config = problem, config or GeneratorConfig()
         self.conditioned = conditioned
-        n_in = 3 + len(problem.env_names) + (len(CONDITION_NAMES) if conditioned is not None else 0)
+        na, nf = problem.n_axes, problem.n_forces
+        self.n_axes, self.n_forces = na, nf
+        n_in = 2 * na + 1 + len(problem.env_names) + (len(CONDITION_NAMES) if conditioned is not None else 0)
         layers: list[nn.Module] = []
         for _ in range(self.config.layers):
             layers += [nn.Linear(n_in, self.config.hidden), nn.Tanh()]
             n_in = self.config.hidden
-        layers.append(nn.Linear(n_in, 2))
+        layers.append(nn.Linear(n_in, nf + na))
         self.net = nn.Sequential(*layers)
         pr = problem
         lo = [v[0] if isinstance(v, tuple) else v for v in pr.environment.values()]
@@ -73,19 +83,21 @@ class Generator(nn.Module):
                                                         dtype=torch.float32))
         # output scales: forces around the middle of their range; accelerations that can
         # cross the velocity range in a few steps
-        self.f_mid, self.f_half = 0.5 * (pr.f_min + pr.f_max), 0.5 * (pr.f_max - pr.f_min)
-        self.a_scale = (pr.qdot_max - pr.qdot_min) / (4 * pr.dt)
-        self.q_mid, self.q_half = 0.5 * (pr.q_min + pr.q_max), 0.5 * (pr.q_max - pr.q_min)
-        self.v_half = 0.5 * (pr.qdot_max - pr.qdot_min)
+        v = {k: pr.vec(k) for k in ("f_min", "f_max", "qdot_min", "qdot_max", "q_min", "q_max")}
+        self.f_mid, self.f_half = 0.5 * (v["f_min"] + v["f_max"]), 0.5 * (v["f_max"] - v["f_min"])
+        self.a_scale = (v["qdot_max"] - v["qdot_min"]) / (4 * pr.dt)
+        self.q_mid, self.q_half = 0.5 * (v["q_min"] + v["q_max"]), 0.5 * (v["q_max"] - v["q_min"])
+        self.v_half = 0.5 * (v["qdot_max"] - v["qdot_min"])
 
     def scales(self, limits: torch.Tensor | None) -> tuple:
-        """(f_mid, f_half, a_scale, v_half): the problem's floats, or per-plan (B,) tensors from
-        (B, 3) limits [q̇_max, f_min, f_max] for a conditioned generator."""
+        """(f_mid, f_half, a_scale, v_half): the problem's, or per-plan (B, 1) tensors from (B, 3)
+        limits [q̇_max, f_min, f_max] (the same for every axis) for a conditioned generator."""
         if limits is None:
-            return self.f_mid, self.f_half, self.a_scale, self.v_half
-        qmax, fmin, fmax = limits[:, 0], limits[:, 1], limits[:, 2]
-        return (0.5 * (fmin + fmax), 0.5 * (fmax - fmin), (qmax - self.problem.qdot_min) / (4 * self.problem.dt),
-                0.5 * (qmax - self.problem.qdot_min))
+            return tuple(_scalar(x) for x in (self.f_mid, self.f_half, self.a_scale, self.v_half))
+        qmax, fmin, fmax = limits[:, 0:1], limits[:, 1:2], limits[:, 2:3]
+        qdot_min = _scalar(self.problem.vec("qdot_min"))
+        return (0.5 * (fmin + fmax), 0.5 * (fmax - fmin), (qmax - qdot_min) / (4 * self.problem.dt),
+                0.5 * (qmax - qdot_min))
 
     def condition(self, limits: torch.Tensor | None, b: int) -> torch.Tensor | None:
         """(B, 3) limits for a conditioned generator (default: its problem's), else None."""
@@ -99,16 +111,19 @@ class Generator(nn.Module):
 
     def step(self, q: torch.Tensor, v: torch.Tensor, tau: float, en: torch.Tensor,
              scales: tuple | None = None) -> tuple[torch.Tensor, torch.Tensor]:
-        """`en`: the scaled environment, followed by the scaled limits for a conditioned generator."""
+        """(B, axes) positions and velocities -> (B, forces) forces and (B, axes) accelerations.
+        `en`: the scaled environment, followed by the scaled limits for a conditioned generator."""
         f_mid, f_half, a_scale, v_half = scales or self.scales(None)
-        x = torch.cat([((q - self.q_mid) / self.q_half)[:, None], (v / v_half)[:, None],
-                       torch.full_like(q, 2 * tau - 1)[:, None], en], dim=1)
+        x = torch.cat([(q - _scalar(self.q_mid)) / _scalar(self.q_half), v / v_half,
+                       torch.full_like(q[:, :1], 2 * tau - 1), en], dim=1)
         out = self.net(x)
-        return f_mid + f_half * out[:, 0], a_scale * out[:, 1]
+        nf = self.n_forces
+        return f_mid + f_half * out[:, :nf], a_scale * out[:, nf:]
 
     def rollout(self, env: torch.Tensor, limits: torch.Tensor | None = None) -> torch.Tensor:
-        """(B, E) environments in problem order -> (B, N + 1, 3) plans [q, q̇, f]. A conditioned
-        generator also takes (B, 3) limits [q̇_max, f_min, f_max] (default: its problem's)."""
+        """(B, E) environments in problem order -> (B, N + 1, channels) plans in the task's channel
+        order. A conditioned generator also takes (B, 3) limits [q̇_max, f_min, f_max] (default:
+        its problem's)."""
         pr = self.problem
         n, dt = pr.steps, pr.dt
         b = env.shape[0]
@@ -117,8 +132,8 @@ class Generator(nn.Module):
         if limits is not None:
             en = torch.cat([en, (limits - self.c_mid) / self.c_half], dim=1)
         scales = self.scales(limits)
-        q = torch.full((b,), pr.q0, dtype=en.dtype)
-        v = torch.full((b,), pr.qdot0, dtype=en.dtype)
+        q = torch.tensor(pr.vec("q0"), dtype=en.dtype).expand(b, -1)
+        v = torch.tensor(pr.vec("qdot0"), dtype=en.dtype).expand(b, -1)
         qs, vs, fs = [q], [v], []
         for k in range(n + 1):
             f, a = self.step(q, v, k / n, en, scales)
@@ -130,7 +145,7 @@ class Generator(nn.Module):
             v = v_next
             qs.append(q)
             vs.append(v)
-        return torch.stack([torch.stack(qs, 1), torch.stack(vs, 1), torch.stack(fs, 1)], dim=2)
+        return torch.cat([torch.stack(qs, 1), torch.stack(vs, 1), torch.stack(fs, 1)], dim=2)[:, :, channel_order(pr)]
 
 
 class AmortizedPlanner:
@@ -155,8 +170,9 @@ class AmortizedPlanner:
             self._c = (lim - g.c_mid.double().numpy()) / g.c_half.double().numpy()
             qmax, fmin, fmax = lim
             gp = g.problem
-            self._scales = (0.5 * (fmin + fmax), 0.5 * (fmax - fmin), (qmax - gp.qdot_min) / (4 * gp.dt),
-                            0.5 * (qmax - gp.qdot_min))
+            qdot_min = gp.vec("qdot_min")
+            self._scales = (np.full(g.n_forces, 0.5 * (fmin + fmax)), np.full(g.n_forces, 0.5 * (fmax - fmin)),
+                            (qmax - qdot_min) / (4 * gp.dt), 0.5 * (qmax - qdot_min))
         else:
             self._c = np.empty(0)
             self._scales = (g.f_mid, g.f_half, g.a_scale, g.v_half)
@@ -166,23 +182,24 @@ class AmortizedPlanner:
         g, pr = self.generator, self.generator.problem
         n, dt = pr.steps, pr.dt
         f_mid, f_half, a_scale, v_half = self._scales
+        na, nf = g.n_axes, g.n_forces
         en = (np.array([env[k] for k in pr.env_names]) - self._e_mid) / self._e_half
-        x = np.empty(3 + en.size + self._c.size)
-        x[3:3 + en.size] = en
-        x[3 + en.size:] = self._c
-        q, v = pr.q0, pr.qdot0
-        out = np.empty((n + 1, 3))
+        x = np.empty(2 * na + 1 + en.size + self._c.size)
+        x[2 * na + 1:2 * na + 1 + en.size] = en
+        x[2 * na + 1 + en.size:] = self._c
+        q, v = pr.vec("q0"), pr.vec("qdot0")
+        qs, vs, fs = np.empty((n + 1, na)), np.empty((n + 1, na)), np.empty((n + 1, nf))
         for k in range(n + 1):
-            x[0], x[1], x[2] = (q - g.q_mid) / g.q_half, v / v_half, 2 * k / n - 1
+            x[:na], x[na:2 * na], x[2 * na] = (q - g.q_mid) / g.q_half, v / v_half, 2 * k / n - 1
             h = x
             for w, b in self._weights[:-1]:
                 h = np.tanh(w @ h + b)
             w, b = self._weights[-1]
             o = w @ h + b
-            out[k] = q, v, f_mid + f_half * o[0]
-            v_next = v + a_scale * o[1] * dt
+            qs[k], vs[k], fs[k] = q, v, f_mid + f_half * o[:nf]
+            v_next = v + a_scale * o[nf:] * dt
             q, v = q + 0.5 * dt * (v + v_next), v_next
-        return Plan.from_array(self.problem.dt, out, self.problem.channel_spec)
+        return plan_from_parts(self.problem, qs, vs, fs)
 
     def solve(self, env: dict[str, float]) -> PlanResult:
         env = self.problem.env_dict(env)

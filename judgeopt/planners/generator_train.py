@@ -25,7 +25,8 @@ import torch.nn.functional as F
 from judgeopt.judge.model import Judge
 from judgeopt.planners.generator import Generator, GeneratorConfig
 from judgeopt.planners.limits import LimitRanges
-from judgeopt.planners.problem import Problem
+from judgeopt.planners.dynamics import channel_order
+from judgeopt.planners.problem import FREE, Problem
 
 
 @dataclass(frozen=True)
@@ -48,21 +49,37 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
     pr = gen.problem
     lim = gen.condition(limits, env.shape[0])
     x = gen.rollout(env, lim)
-    q, v, f = x[..., 0], x[..., 1], x[..., 2]
+    order = channel_order(pr)  # column of each channel in [positions, velocities, forces]
+    na = pr.n_axes
+    parts = torch.empty_like(x)
+    parts[..., order] = x  # back to [positions, velocities, forces]
+    q, v, f = parts[..., :na], parts[..., na:2 * na], parts[..., 2 * na:]
+
+    def per_axis(name: str) -> torch.Tensor | float:
+        values = pr.vec(name)
+        return float(values[0]) if values.size == 1 else torch.tensor(values, dtype=x.dtype)
+
     if lim is None:
-        qdot_max, f_min, f_max = pr.qdot_max, pr.f_min, pr.f_max
-    else:  # (B, 1): broadcast along the steps
-        qdot_max, f_min, f_max = lim[:, 0:1], lim[:, 1:2], lim[:, 2:3]
+        qdot_max, f_min, f_max = per_axis("qdot_max"), per_axis("f_min"), per_axis("f_max")
+    else:  # (B, 1, 1): broadcast along the steps and axes
+        qdot_max, f_min, f_max = lim[:, 0:1, None], lim[:, 1:2, None], lim[:, 2:3, None]
+    qdot_min, q_min, q_max = per_axis("qdot_min"), per_axis("q_min"), per_axis("q_max")
     cols = [pr.env_names.index(k) for k in judge.config.env_names]
     logit = judge(x, env[:, cols])
     l1 = pr.P * F.softplus(-logit)
-    limits = ((F.relu(v[:, 1:] - qdot_max) ** 2 + F.relu(pr.qdot_min - v[:, 1:]) ** 2
-               + F.relu(q[:, 1:] - pr.q_max) ** 2 + F.relu(pr.q_min - q[:, 1:]) ** 2).sum(1)
-              + (F.relu(f - f_max) ** 2 + F.relu(f_min - f) ** 2).sum(1))
-    q_end = env[:, pr.env_names.index("y_obj")] if isinstance(pr.q_end, str) else torch.full_like(q[:, -1], pr.q_end)
-    terminal = (q[:, -1] - q_end) ** 2 + (v[:, -1] - pr.qdot_end) ** 2
+    limits = ((F.relu(v[:, 1:] - qdot_max) ** 2 + F.relu(qdot_min - v[:, 1:]) ** 2
+               + F.relu(q[:, 1:] - q_max) ** 2 + F.relu(q_min - q[:, 1:]) ** 2).sum((1, 2))
+              + (F.relu(f - f_max) ** 2 + F.relu(f_min - f) ** 2).sum((1, 2)))
+    terminal = ((v[:, -1] - torch.tensor(pr.vec("qdot_end"), dtype=x.dtype)) ** 2).sum(1)
+    ends = pr.q_end if isinstance(pr.q_end, (list, tuple)) else [pr.q_end] * na
+    for i, end in enumerate(ends):  # a fixed end: a number or an environment variable
+        if end == FREE:
+            continue
+        target = env[:, pr.env_names.index(end)] if isinstance(end, str) else torch.full_like(q[:, -1, i], float(end))
+        terminal = terminal + (q[:, -1, i] - target) ** 2
     acc = torch.diff(v, dim=1) / pr.dt
-    smooth = pr.acc_weight * pr.dt * (acc ** 2).sum(1) + pr.force_rate_weight * (torch.diff(f, dim=1) ** 2).sum(1) / pr.dt
+    smooth = (pr.acc_weight * pr.dt * (acc ** 2).sum((1, 2))
+              + pr.force_rate_weight * (torch.diff(f, dim=1) ** 2).sum((1, 2)) / pr.dt)
     loss = (l1 + pr.Q * limits + pr.R * terminal + smooth).mean()
     parts = {"loss": loss.item(), "L1": l1.mean().item(), "limits": limits.mean().item(),
              "terminal": terminal.mean().item(), "p_mean": torch.sigmoid(logit).mean().item()}

@@ -22,8 +22,13 @@ import numpy as np
 
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 
-#: a terminal position that is "wherever the object is"
+#: a terminal position that is "wherever the object is" (the scoop's; any environment variable may be named)
 Y_OBJ = "y_obj"
+#: a terminal position left to the planner
+FREE = "free"
+#: fields holding one value per position axis (or one for all), and one per force channel
+AXIS_FIELDS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "q_end", "qdot_end")
+FORCE_FIELDS = ("f_min", "f_max")
 
 
 class ProblemError(ValueError):
@@ -56,23 +61,27 @@ LIMIT_NAMES = SECTIONS["limits"]
 
 @dataclass(frozen=True)
 class Problem:
-    """Units: m, m/s, N, s. Defaults are the paper's Table 3 (simulation)."""
+    """Units: m, m/s, N, s. Defaults are the paper's Table 3 (simulation).
+
+    Position, velocity and terminal fields hold one value per position axis of the task, or one
+    value for every axis; f_min and f_max one per force channel, or one for all. q_end is a
+    number, the name of an environment variable (the scoop's "y_obj") or "free"."""
 
     name: str = "unnamed"
     description: str = ""
     task: str = DEFAULT_TASK
     steps: int = 30
     dt: float = 0.05
-    q0: float = -0.03
-    qdot0: float = 0.0
-    q_min: float = -0.2
-    q_max: float = 0.4
-    qdot_min: float = -0.05
-    qdot_max: float = 1.0
-    f_min: float = 7.5
-    f_max: float = 22.5
-    q_end: float | str = Y_OBJ
-    qdot_end: float = 0.0
+    q0: float | list[float] = -0.03
+    qdot0: float | list[float] = 0.0
+    q_min: float | list[float] = -0.2
+    q_max: float | list[float] = 0.4
+    qdot_min: float | list[float] = -0.05
+    qdot_max: float | list[float] = 1.0
+    f_min: float | list[float] = 7.5
+    f_max: float | list[float] = 22.5
+    q_end: float | str | list[float | str] = Y_OBJ
+    qdot_end: float | list[float] = 0.0
     environment: dict[str, EnvValue] = field(default_factory=lambda: get_task(DEFAULT_TASK).env_ranges())
     # loss weights: eq. (3) P; eq. (4) Q (limits) and R (terminal) for the generator; the
     # smoothing terms (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s) keep the direct
@@ -106,31 +115,46 @@ class Problem:
     # -- validation -----------------------------------------------------------------
     def validate(self) -> None:
         where = f" in {self.source}" if self.source else ""
-        for name in ("dt", "q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max", "qdot_end",
-                     "P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
+        try:
+            task = get_task(self.task)
+        except TaskError as exc:
+            raise ProblemError(f"{exc}{where}") from None
+        for name in ("dt", "P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ProblemError(f"{name} = {v!r}{where} must be a finite number")
+        n_axes, n_forces = len(task.channels_of("position")), len(task.channels_of("force"))
+        for name in AXIS_FIELDS + FORCE_FIELDS:
+            v = getattr(self, name)
+            count = n_forces if name in FORCE_FIELDS else n_axes
+            values = v if isinstance(v, (list, tuple)) else [v]
+            if isinstance(v, (list, tuple)) and len(v) != count:
+                raise ProblemError(f"{name} = {list(v)}{where} has {len(v)} values; task {task.name!r} has {count} "
+                                   f"{'force channels' if name in FORCE_FIELDS else 'position axes'} (or give one value)")
+            for x in values:
+                if name == "q_end" and isinstance(x, str):
+                    if x != FREE and x not in self.environment:
+                        raise ProblemError(f"q_end = {x!r}{where} must be a number, \"{FREE}\" or an environment "
+                                           f"variable ({', '.join(self.environment)})")
+                elif isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+                    raise ProblemError(f"{name} = {v!r}{where} must be a finite number (or a list of them)")
         if not isinstance(self.steps, int) or isinstance(self.steps, bool) or self.steps < 1:
             raise ProblemError(f"steps = {self.steps!r}{where} must be a positive whole number (the horizon N)")
         if self.dt <= 0:
             raise ProblemError(f"dt = {self.dt}{where} must be positive (seconds per step)")
         for lo, hi in (("q_min", "q_max"), ("qdot_min", "qdot_max"), ("f_min", "f_max")):
-            if not getattr(self, lo) < getattr(self, hi):
+            if not np.all(self._vec(lo, task) < self._vec(hi, task)):
                 raise ProblemError(f"{lo} = {getattr(self, lo)} must be below {hi} = {getattr(self, hi)}{where}")
         for name in ("P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
             if getattr(self, name) < 0:
                 raise ProblemError(f"weight {name} = {getattr(self, name)}{where} must not be negative")
-        if not (self.q_min <= self.q0 <= self.q_max):
+        if not np.all((self._vec("q_min", task) <= self._vec("q0", task)) & (self._vec("q0", task) <= self._vec("q_max", task))):
             raise ProblemError(f"start position q0 = {self.q0} is outside [q_min, q_max] = "
                                f"[{self.q_min}, {self.q_max}]{where}")
-        if not (self.qdot_min <= self.qdot0 <= self.qdot_max):
+        if not np.all((self._vec("qdot_min", task) <= self._vec("qdot0", task))
+                      & (self._vec("qdot0", task) <= self._vec("qdot_max", task))):
             raise ProblemError(f"start velocity qdot0 = {self.qdot0} is outside [qdot_min, qdot_max] = "
                                f"[{self.qdot_min}, {self.qdot_max}]{where}")
-        if isinstance(self.q_end, str) and self.q_end != Y_OBJ:
-            raise ProblemError(f"q_end = {self.q_end!r}{where} must be a number or \"{Y_OBJ}\"")
-        if isinstance(self.q_end, str) and Y_OBJ not in self.environment:
-            raise ProblemError(f"q_end = \"{Y_OBJ}\" but the environment has no y_obj{where}")
         if self.p_min is not None and not (0.0 < self.p_min < 1.0):
             raise ProblemError(f"p_min = {self.p_min}{where} must lie strictly between 0 and 1 (or be left out)")
         if not (isinstance(self.pessimism, (int, float)) and self.pessimism >= 0):
@@ -142,10 +166,6 @@ class Problem:
             raise ProblemError(f"max_iter = {self.max_iter!r}{where} must be a positive whole number")
         if not self.environment:
             raise ProblemError(f"the environment{where} names no variables")
-        try:
-            task = get_task(self.task)
-        except TaskError as exc:
-            raise ProblemError(f"{exc}{where}") from None
         unknown = [k for k in self.environment if k not in task.env_names]
         if unknown:  # a subset is allowed: a real setup may not know every variable (paper_real.toml)
             raise ProblemError(f"environment {', '.join(unknown)}{where}: not a variable of task {task.name!r} "
@@ -156,6 +176,30 @@ class Problem:
                     raise ProblemError(f"environment {k} = {list(v)}{where} must be [lo, hi] with lo <= hi")
             elif not math.isfinite(v):
                 raise ProblemError(f"environment {k} = {v!r}{where} must be a finite number")
+
+    # -- per axis ---------------------------------------------------------------------
+    def _vec(self, name: str, task=None) -> np.ndarray:
+        task = task or get_task(self.task)
+        count = len(task.channels_of("force" if name in FORCE_FIELDS else "position"))
+        v = getattr(self, name)
+        return np.array(v if isinstance(v, (list, tuple)) else [v] * count, dtype=float)
+
+    def vec(self, name: str) -> np.ndarray:
+        """A position, velocity or force field as one value per axis (or force channel)."""
+        return self._vec(name)
+
+    @property
+    def n_axes(self) -> int:
+        return len(get_task(self.task).channels_of("position"))
+
+    @property
+    def n_forces(self) -> int:
+        return len(get_task(self.task).channels_of("force"))
+
+    def terminal_positions(self, env: dict[str, float]) -> np.ndarray:
+        """Per axis: the end position the plan must reach (nan: free)."""
+        ends = self.q_end if isinstance(self.q_end, (list, tuple)) else [self.q_end] * self.n_axes
+        return np.array([np.nan if e == FREE else float(env[e]) if isinstance(e, str) else float(e) for e in ends])
 
     # -- the environment --------------------------------------------------------------
     @property
@@ -200,42 +244,51 @@ class Problem:
         return out
 
     def terminal_position(self, env: dict[str, float]) -> float:
-        return float(env[Y_OBJ]) if isinstance(self.q_end, str) else float(self.q_end)
+        """The end position of a one-axis task (nan: free)."""
+        return float(self.terminal_positions(env)[0])
 
     @property
     def horizon_time(self) -> float:
         return self.steps * self.dt
 
     # -- feasibility ------------------------------------------------------------------
-    def reachable_range(self) -> tuple[float, float]:
-        """Positions reachable at the horizon with the terminal velocity, under the velocity
-        limits. The plan integrates q with the trapezoid rule (dynamics.py), so
+    def reachable_range(self, axis: int = 0) -> tuple[float, float]:
+        """Positions of `axis` reachable at the horizon with the terminal velocity, under the
+        velocity limits. The plan integrates q with the trapezoid rule (dynamics.py), so
         q_N - q_0 = dt (q̇_0/2 + sum_{k=1}^{N-1} q̇_k + q̇_N/2): extremes with every inner q̇_k at a limit."""
-        ends = self.dt * (0.5 * self.qdot0 + 0.5 * self.qdot_end)
+        q0, qd0, qd_end, qd_min, qd_max, q_min, q_max = (float(self.vec(k)[axis]) for k in (
+            "q0", "qdot0", "qdot_end", "qdot_min", "qdot_max", "q_min", "q_max"))
+        ends = self.dt * (0.5 * qd0 + 0.5 * qd_end)
         inner = self.dt * (self.steps - 1)
-        lo, hi = self.q0 + ends + inner * self.qdot_min, self.q0 + ends + inner * self.qdot_max
-        return max(lo, self.q_min), min(hi, self.q_max)
+        lo, hi = q0 + ends + inner * qd_min, q0 + ends + inner * qd_max
+        return max(lo, q_min), min(hi, q_max)
 
     def check_feasible(self, env: dict[str, float]) -> None:
         """Raise InfeasibleProblemError naming the constraints in conflict (no solver needed)."""
-        q_end = self.terminal_position(env)
-        if not (self.q_min <= q_end <= self.q_max):
-            raise InfeasibleProblemError(
-                f"terminal position q_end = {q_end:.4g} m lies outside the position limits "
-                f"[q_min, q_max] = [{self.q_min}, {self.q_max}] m", ["terminal.q_end", "limits.q_min/q_max"])
-        if not (self.qdot_min <= self.qdot_end <= self.qdot_max):
-            raise InfeasibleProblemError(
-                f"terminal velocity qdot_end = {self.qdot_end} m/s lies outside the velocity limits "
-                f"[qdot_min, qdot_max] = [{self.qdot_min}, {self.qdot_max}] m/s",
-                ["terminal.qdot_end", "limits.qdot_min/qdot_max"])
-        lo, hi = self.reachable_range()
-        if not (lo - 1e-12 <= q_end <= hi + 1e-12):
-            side = "qdot_max" if q_end > hi else "qdot_min"
-            raise InfeasibleProblemError(
-                f"terminal position q_end = {q_end:.4g} m is out of reach: starting at q0 = {self.q0} m "
-                f"with velocity limits [{self.qdot_min}, {self.qdot_max}] m/s, {self.steps} steps of "
-                f"{self.dt} s reach only [{lo:.4g}, {hi:.4g}] m; raise {side}, lengthen the horizon, "
-                f"or move q_end", ["terminal.q_end", f"limits.{side}", "horizon.steps"])
+        names = [c.name for c in get_task(self.task).channels_of("position")]
+        ends = self.terminal_positions(env)
+        for i, q_end in enumerate(ends):
+            axis = f" ({names[i]})" if len(names) > 1 else ""
+            q0, q_min, q_max, qd_end, qd_min, qd_max = (float(self.vec(k)[i]) for k in (
+                "q0", "q_min", "q_max", "qdot_end", "qdot_min", "qdot_max"))
+            if not np.isnan(q_end) and not (q_min <= q_end <= q_max):
+                raise InfeasibleProblemError(
+                    f"terminal position q_end{axis} = {q_end:.4g} m lies outside the position limits "
+                    f"[q_min, q_max] = [{q_min}, {q_max}] m", ["terminal.q_end", "limits.q_min/q_max"])
+            if not (qd_min <= qd_end <= qd_max):
+                raise InfeasibleProblemError(
+                    f"terminal velocity qdot_end{axis} = {qd_end} m/s lies outside the velocity limits "
+                    f"[qdot_min, qdot_max] = [{qd_min}, {qd_max}] m/s", ["terminal.qdot_end", "limits.qdot_min/qdot_max"])
+            if np.isnan(q_end):
+                continue
+            lo, hi = self.reachable_range(i)
+            if not (lo - 1e-12 <= q_end <= hi + 1e-12):
+                side = "qdot_max" if q_end > hi else "qdot_min"
+                raise InfeasibleProblemError(
+                    f"terminal position q_end{axis} = {q_end:.4g} m is out of reach: starting at q0 = {q0} m "
+                    f"with velocity limits [{qd_min}, {qd_max}] m/s, {self.steps} steps of "
+                    f"{self.dt} s reach only [{lo:.4g}, {hi:.4g}] m; raise {side}, lengthen the horizon, "
+                    f"or move q_end", ["terminal.q_end", f"limits.{side}", "horizon.steps"])
 
     # -- variants ----------------------------------------------------------------------
     def with_overrides(self, **values: Any) -> "Problem":

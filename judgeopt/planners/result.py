@@ -21,21 +21,25 @@ LIKELY = 0.5
 
 
 def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) -> dict[str, float]:
-    """Worst violation of each constraint (>= 0; 0 when satisfied), in the constraint's units."""
-    def over(values: np.ndarray, bound: float) -> float:
+    """Worst violation of each constraint over all axes (>= 0; 0 when satisfied), in the
+    constraint's units."""
+    def over(values: np.ndarray, bound: np.ndarray) -> float:
         return float(max(0.0, np.max(values - bound)))
 
-    def under(values: np.ndarray, bound: float) -> float:
+    def under(values: np.ndarray, bound: np.ndarray) -> float:
         return float(max(0.0, np.max(bound - values)))
 
+    q, v, f = (plan.values[:, plan.columns(kind)] for kind in ("position", "velocity", "force"))
+    ends = problem.terminal_positions(env)
+    fixed = ~np.isnan(ends)
     return {
-        "q_min": under(plan.y, problem.q_min), "q_max": over(plan.y, problem.q_max),
-        "qdot_min": under(plan.ydot, problem.qdot_min), "qdot_max": over(plan.ydot, problem.qdot_max),
-        "f_min": under(plan.f, problem.f_min), "f_max": over(plan.f, problem.f_max),
-        "q_end": abs(float(plan.y[-1]) - problem.terminal_position(env)),
-        "qdot_end": abs(float(plan.ydot[-1]) - problem.qdot_end),
-        "start": max(abs(float(plan.y[0]) - problem.q0), abs(float(plan.ydot[0]) - problem.qdot0)),
-        "dynamics": dynamics_residual(plan.y, plan.ydot, plan.dt),
+        "q_min": under(q, problem.vec("q_min")), "q_max": over(q, problem.vec("q_max")),
+        "qdot_min": under(v, problem.vec("qdot_min")), "qdot_max": over(v, problem.vec("qdot_max")),
+        "f_min": under(f, problem.vec("f_min")), "f_max": over(f, problem.vec("f_max")),
+        "q_end": float(np.max(np.abs(q[-1, fixed] - ends[fixed]), initial=0.0)),
+        "qdot_end": float(np.max(np.abs(v[-1] - problem.vec("qdot_end")))),
+        "start": max(float(np.max(np.abs(q[0] - problem.vec("q0")))), float(np.max(np.abs(v[0] - problem.vec("qdot0"))))),
+        "dynamics": max(dynamics_residual(q[:, i], v[:, i], plan.dt) for i in range(q.shape[1])),
     }
 
 

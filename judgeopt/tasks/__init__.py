@@ -17,7 +17,7 @@ __all__ = ["BUILTIN", "Channel", "EnvVar", "EnvironmentRangeError", "Outcome", "
            "TaskSimulator", "get_task", "register_task", "task_names"]
 
 #: name -> "module:class"
-BUILTIN = {"scoop": "judgeopt.tasks.scoop:ScoopTask"}
+BUILTIN = {"scoop": "judgeopt.tasks.scoop:ScoopTask", "scrape": "judgeopt.tasks.scrape:ScrapeTask"}
 DEFAULT_TASK = "scoop"
 
 _REGISTERED: dict[str, Callable[[], Task]] = {}
