@@ -9,7 +9,9 @@ from pathlib import Path
 
 TITLES = {"table4": "Table 4: success rate by what the judge knows (q̇_max = 1.0, y_obj in [0.10, 0.28], mu in [1, 3])",
           "table5": "Table 5: success rate by friction range (q̇_max = 1.0, y_obj in [0.10, 0.28])",
-          "compare": "Planners on the same instances (q̇_max = {qdot_max}, y_obj in [0.10, 0.28], mu in [1, 3])"}
+          "compare": "Planners on the same instances (q̇_max = {qdot_max}, y_obj in [0.10, 0.28], mu in [1, 3])",
+          "planners": "Planners on the same instances: {name} (task {task}), q̇_max = {qdot_max}, f in [{f_min}, {f_max}], "
+                      "environment {env}"}
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -43,7 +45,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     for rs in results.values():
         calibrate_rows(rs, calibrators, problem.env_names)
     summary = summarise(rows, results)
-    title = TITLES[args.table].format(qdot_max=problem.qdot_max)
+    title = TITLES[args.table].format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
+                                      f_min=problem.f_min, f_max=problem.f_max,
+                                      env=", ".join(f"{k} in {list(v) if isinstance(v, tuple) else v}"
+                                                    for k, v in problem.environment.items()))
     files = write_report(summary, out, args.table, title, results, rows)
     print(markdown(summary, title))
     print("command: judgeopt evaluate " + " ".join(f"{a}" for a in _argv(args)))
@@ -197,7 +202,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "seeded environments per row (rows with the same mu range share them). Parallel processes "
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
                        "interrupted run resumes.")
-    e.add_argument("table", choices=("table4", "table5", "compare", "sweep"),
+    e.add_argument("table", choices=("table4", "table5", "compare", "planners", "sweep"),
                    help="table4, table5: the paper's tables; compare: amortised vs direct vs CEM sampling; sweep: "
                    "held-out limit sets, with the no-judge baseline and a feasibility search in simulation")
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "

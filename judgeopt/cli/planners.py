@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.cli.common import command_line, value_range
-from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
+from judgeopt.planners.problem import AXIS_FIELDS, FORCE_FIELDS, SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
 EXIT_INFEASIBLE = 3  # the limits admit no plan at all (found before any solver runs)
@@ -23,17 +23,32 @@ EXIT_UNLIKELY = 4  # plans were made, but no method's plan is likely to succeed
 _FIELD_TYPES = {f.name: f.type for f in dataclasses.fields(Problem)}
 
 
-def _q_end(text: str) -> float | str:
-    return text if text == "y_obj" else float(text)
+def _number_or_name(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text  # "free" or an environment variable; the problem checks which
+
+
+def _per_axis(convert):
+    """One value for every axis, or a comma-separated value per axis."""
+    def parse(text: str):
+        try:
+            values = [convert(v) for v in text.split(",")]
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a number or comma-separated numbers, got {text!r}") from None
+        return values[0] if len(values) == 1 else values
+    return parse
 
 
 def _parser_type(name: str):
-    t = str(_FIELD_TYPES[name])
     if name == "q_end":
-        return _q_end
+        return _per_axis(_number_or_name)
+    if name in AXIS_FIELDS + FORCE_FIELDS:
+        return _per_axis(float)
     if name in SECTIONS["models"]:
         return str
-    return int if t == "int" else float
+    return int if str(_FIELD_TYPES[name]) == "int" else float
 
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
@@ -44,8 +59,17 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
         for name in names:
             g.add_argument(f"--{name.replace('_', '-')}", dest=f"set_{name}", type=_parser_type(name), metavar="X",
                            help=f"override [{section}] {name}")
-    g.add_argument("--y-obj", dest="env_y_obj", help="object position y_obj in m (a value, or lo,hi)")
-    g.add_argument("--mu", dest="env_mu", help="spatula-object friction mu (a value, or lo,hi)")
+    from judgeopt.tasks import get_task, task_names
+
+    variables: dict[str, list] = {}
+    for t in task_names():  # one option per environment variable of any task (--y-obj, --mu, ...)
+        for v in get_task(t).env_vars:
+            variables.setdefault(v.name, []).append((t, v))
+    for name, owners in variables.items():
+        v = owners[0][1]
+        unit = f" in {v.unit}" if v.unit else ""
+        g.add_argument(f"--{name.replace('_', '-')}", dest=f"env_{name}", metavar="X or LO,HI",
+                       help=f"{v.description or name}{unit} (task {', '.join(t for t, _ in owners)})")
 
 
 def problem_from_args(args: argparse.Namespace) -> Problem:

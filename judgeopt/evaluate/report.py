@@ -63,7 +63,7 @@ def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
         cpred = [r["calibrated_success"] for r in cal]
         csim = [float(r["simulated_success"]) for r in cal]
         out.append({"row": row.name, "method": row.method, "judge": row.judge or "-",
-                    "mu": f"[{row.mu[0]:g}, {row.mu[1]:g}]", "n": n, "successes": k,
+                    "mu": row.env_label, "n": n, "successes": k,
                     "success_pct": 100 * k / n if n else math.nan, "ci95_low_pct": 100 * lo, "ci95_high_pct": 100 * hi,
                     "paper_pct": row.paper,
                     "predicted_mean": float(np.mean(pred)) if pred else None,

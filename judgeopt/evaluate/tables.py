@@ -32,14 +32,18 @@ class Row:
     name: str
     method: str
     judge: str | None
-    mu: tuple[float, float] = (1.0, 3.0)
+    mu: tuple[float, float] | None = (1.0, 3.0)  # None: the problem's own environment ranges (any task)
     paper: float | None = None  # the paper's success rate for this row, in %
     overrides: tuple[tuple[str, object], ...] = ()
 
     @property
     def key(self) -> str:
         slug = "".join(c if c.isalnum() else "_" for c in self.name)
-        return f"{slug}__{self.method}__mu{self.mu[0]:g}-{self.mu[1]:g}"
+        return f"{slug}__{self.method}__" + ("env" if self.mu is None else f"mu{self.mu[0]:g}-{self.mu[1]:g}")
+
+    @property
+    def env_label(self) -> str:
+        return "problem's" if self.mu is None else f"[{self.mu[0]:g}, {self.mu[1]:g}]"
 
 
 def table4() -> list[Row]:
@@ -83,11 +87,21 @@ def compare() -> list[Row]:
     return rows + [Row(name, method, judge, overrides=o) for name, method, judge, o in ABLATIONS]
 
 
-TABLES = {"table4": table4, "table5": table5, "compare": compare}
+def planners() -> list[Row]:
+    """Any task: both planners and the CEM against the problem's judge, and random plans within
+    the limits, in the problem's own environment ranges."""
+    return [Row(m, m, None, None) for m in ("amortized", "direct", "cem")] + [
+        Row("no judge (random plans within the limits)", "nojudge", None, None)]
+
+
+TABLES = {"table4": table4, "table5": table5, "compare": compare, "planners": planners}
 
 
 def environments(problem: Problem, row: Row, n: int, seed: int) -> np.ndarray:
-    """The row's environments: seeded by the mu range only, so rows with the same range share them."""
+    """The row's environments: seeded by the mu range only, so rows with the same range share them
+    (no range: the problem's own environment ranges, the same for every row)."""
+    if row.mu is None:
+        return problem.sample_env(np.random.default_rng([seed, 0, 0]), n)
     p = problem.with_overrides(y_obj=list(Y_RANGE), mu=list(row.mu))
     rng = np.random.default_rng([seed, int(round(row.mu[0] * 1000)), int(round(row.mu[1] * 1000))])
     return p.sample_env(rng, n)
