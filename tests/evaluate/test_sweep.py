@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.cli import main
 from judgeopt.evaluate.feasibility import SearchConfig, random_plans, search
 from judgeopt.evaluate.sweep import LimitSet, parse_limit_set, summarise_sweep, sweep_rows
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.result import constraint_residuals
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 PROBLEM = load_problem(ROOT / "problems" / "paper_sim.toml")
 
 

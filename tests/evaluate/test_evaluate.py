@@ -3,15 +3,15 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.evaluate.report import summarise, wilson, write_report
 from judgeopt.evaluate.tables import Row, environments, run_table, table4, table5
 from judgeopt.planners.problem import load_problem
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 
 
 def test_rows_match_the_papers_tables():

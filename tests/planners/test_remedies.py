@@ -3,11 +3,11 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.data.dataset import load, save
 from judgeopt.judge.casadi_fn import build_casadi_judge
 from judgeopt.judge.ensemble import EnsembleConfig, load_ensemble, pessimistic, train_ensemble
@@ -18,7 +18,7 @@ from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.trust_region import (TrustRegionError, fit_trust_region, load_trust_region,
                                             save_trust_region)
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 ENV = {"y_obj": 0.2, "mu": 2.0}
 
 

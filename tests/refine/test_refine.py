@@ -7,11 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.data.dataset import load
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.refine.loop import RefineConfig, install, refine
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 
 
 def test_config_is_checked():

@@ -7,11 +7,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.cli import main
 from judgeopt.data.dataset import load
 from judgeopt.data.importer import ImportSpec, import_csv
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 SPEC = ImportSpec(("y_obj", "mu"))
 
 

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
+from judgeopt.files import REPO
 from judgeopt.cli import main
 from judgeopt.planners.direct import default_guess
 from judgeopt.planners.dynamics import dynamics_residual, integrate
@@ -19,7 +19,7 @@ from judgeopt.planners.result import constraint_residuals
 from judgeopt.planners.store import GeneratorFileError, find_generator, load_generator, save_generator
 from judgeopt.tasks.scoop import scoop_plan
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 PROBLEMS = ROOT / "problems"
 
 

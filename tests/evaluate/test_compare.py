@@ -2,18 +2,18 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.evaluate.report import calibration_error, reliability, summarise, write_report
 from judgeopt.evaluate.tables import Row, compare
 from judgeopt.judge.store import load_judge
 from judgeopt.planners.cem import CEMConfig, CEMPlanner
 from judgeopt.planners.problem import load_problem
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 
 
 @pytest.fixture(scope="module")

@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import dataclasses
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.cli import main
 from judgeopt.planners import result as result_module
 from judgeopt.planners import suggest as suggest_module
@@ -19,7 +19,7 @@ from judgeopt.tasks import get_task
 
 RELAXATIONS = relaxations(get_task("scoop"))
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 
 
 def _result(predicted, **info) -> PlanResult:

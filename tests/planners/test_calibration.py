@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 
+from judgeopt.files import REPO
 from judgeopt.cli import main
 from judgeopt.planners.calibration import (CalibrationError, calibrate_rows, env_fingerprint, fit, fit_from_rows,
                                            load_calibration, save_calibration, setting_id)
 from judgeopt.planners.problem import load_problem
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 
 
 def _band_outcomes(n: int, seed: int = 0):

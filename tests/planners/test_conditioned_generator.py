@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
+from judgeopt.files import REPO
 from judgeopt.cli import main
 from judgeopt.planners.generator import AmortizedPlanner, Generator
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
@@ -19,7 +19,7 @@ from judgeopt.planners.store import (
     GeneratorFileError, find_generator, load_generator, load_generator_meta, matches, save_generator,
 )
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = REPO  # the source checkout
 SHIPPED = ROOT / "models" / "generator_conditioned"
 #: the soft violation of q̇_max, f_min, f_max the shipped conditioned generator stays within
 #: (m/s or N) on limits drawn from its ranges; measured at most 5.8e-3 (q̇_max) and 7.8e-3 m (q_end)
