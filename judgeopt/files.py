@@ -35,6 +35,22 @@ def atomic_write(path: str | Path, data: bytes | str) -> None:
         raise
 
 
+def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
+    """A matplotlib figure to `path` (format from its suffix), atomically; the figure is closed."""
+    import io
+
+    import matplotlib.pyplot as plt
+
+    path = Path(path)
+    buf = io.BytesIO()
+    try:
+        fig.savefig(buf, dpi=dpi, format=(path.suffix.lstrip(".") or "png"))
+    finally:
+        plt.close(fig)
+    atomic_write(path, buf.getvalue())
+    return path
+
+
 def sha256_file(path: str | Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:

@@ -67,7 +67,7 @@ def plot(figures: list[dict], path: Path) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from judgeopt.evaluate.report import _save
+    from judgeopt.files import save_figure
 
     fig, ax = plt.subplots(figsize=(5, 3.5))
     for m in sorted({f["method"] for f in figures}):
@@ -80,7 +80,7 @@ def plot(figures: list[dict], path: Path) -> Path:
     ax.set_ylim(0, 102)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:

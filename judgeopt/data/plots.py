@@ -35,8 +35,6 @@ def plot_velocity_force(ds: Dataset, out: str | Path, title: str = "") -> Path:
     axes[0].legend(loc="lower right", markerscale=3)
     fig.suptitle(title)
     fig.tight_layout()
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    from judgeopt.files import save_figure
+
+    return save_figure(fig, out, dpi=110)

@@ -5,14 +5,12 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from judgeopt.evaluate.tables import Row
-from judgeopt.files import atomic_write
+from judgeopt.files import atomic_write, save_figure
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -121,18 +119,6 @@ def write_report(summary: list[dict], out: Path, name: str, title: str,
     return files
 
 
-def _save(fig, path: Path) -> Path:
-    import matplotlib.pyplot as plt
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".png")
-    os.close(fd)
-    fig.savefig(tmp, dpi=120)
-    plt.close(fig)
-    os.replace(tmp, path)
-    return path
-
-
 def _label(row: Row) -> str:
     return row.name if row.name == row.method else f"{row.name} / {row.method}"
 
@@ -163,7 +149,7 @@ def plot_reliability(rows: list[Row], results: dict[str, list[dict]], path: Path
     ax.set_title("reliability: " + title, fontsize=8)
     ax.legend(fontsize=6, loc="upper left")
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot(summary: list[dict], path: Path, title: str) -> Path:
@@ -187,4 +173,4 @@ def plot(summary: list[dict], path: Path, title: str) -> Path:
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -181,7 +181,7 @@ def plot_sweep(summary: list[dict], path: Path, title: str) -> Path:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from judgeopt.evaluate.report import _save
+    from judgeopt.files import save_figure
 
     sets = list(dict.fromkeys(s["limit_set"] for s in summary))
     fig, axes = plt.subplots(1, 2, figsize=(12, 4))
@@ -202,4 +202,4 @@ def plot_sweep(summary: list[dict], path: Path, title: str) -> Path:
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -33,12 +33,20 @@ class EnsembleConfig:
     bootstrap: bool = True
 
 
-def pessimistic(logits: np.ndarray, k: float) -> np.ndarray:
-    """mean - k * std over the members (axis 0); k = inf means the minimum."""
-    logits = np.asarray(logits, float)
+def pessimistic(logits, k: float, sqrt=np.sqrt, minimum=np.minimum, eps: float = 0.0):
+    """mean - k * std over the members' logits (a sequence, one per member); k = inf: their
+    minimum. Element-wise operations only, so the same score serves numpy arrays, torch tensors
+    (torch.sqrt, torch.minimum) and CasADi expressions (cs.sqrt, cs.fmin; eps keeps the
+    gradient of the square root finite)."""
+    logits = list(logits)
     if np.isinf(k):
-        return logits.min(0)
-    return logits.mean(0) - k * logits.std(0)
+        out = logits[0]
+        for z in logits[1:]:
+            out = minimum(out, z)
+        return out
+    mean = sum(logits) / len(logits)
+    var = sum((z - mean) ** 2 for z in logits) / len(logits)
+    return mean - k * sqrt(var + eps)
 
 
 class PessimisticJudge:
@@ -53,10 +61,8 @@ class PessimisticJudge:
         self._torch = torch
 
     def __call__(self, x, env):
-        logits = self._torch.stack([m(x, env) for m in self.members])
-        if np.isinf(self.k):
-            return logits.min(0).values
-        return logits.mean(0) - self.k * logits.std(0, unbiased=False)
+        torch = self._torch
+        return pessimistic([m(x, env) for m in self.members], self.k, torch.sqrt, torch.minimum)
 
     def eval(self) -> "PessimisticJudge":
         for m in self.members:

@@ -214,6 +214,8 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
 def write_history(result: TrainResult, prefix: str | Path, title: str = "NN_judge") -> list[Path]:
     """`<prefix>.history.csv`, `<prefix>.history.json` and `<prefix>.accuracy.png`
     (train/validation/test accuracy per epoch, like paper Fig. 6)."""
+    from judgeopt.files import save_figure
+
     prefix = Path(prefix)
     prefix.parent.mkdir(parents=True, exist_ok=True)
     csv_path = prefix.with_name(prefix.name + ".history.csv")
@@ -243,6 +245,5 @@ def write_history(result: TrainResult, prefix: str | Path, title: str = "NN_judg
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
     fig.tight_layout()
-    fig.savefig(png_path, dpi=120)
-    plt.close(fig)
+    save_figure(fig, png_path)
     return [csv_path, json_path, png_path]

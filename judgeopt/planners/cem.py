@@ -24,7 +24,7 @@ import numpy as np
 from scipy.interpolate import PchipInterpolator
 
 from judgeopt.judge.model import Judge
-from judgeopt.planners.dynamics import channel_order
+from judgeopt.planners.dynamics import channel_order, positions
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
@@ -83,8 +83,7 @@ class SplineCommands:
                 v = v + ((ends_q[i] - lim["q0"][i] - travel) / bump_travel)[:, None] * self._bump
             v = np.clip(v, lim["qdot_min"][i], lim["qdot_max"][i])
             v[:, 0], v[:, -1] = lim["qdot0"][i], lim["qdot_end"][i]
-            q = lim["q0"][i] + np.concatenate([np.zeros((len(z), 1)), np.cumsum(0.5 * dt * (v[:, :-1] + v[:, 1:]),
-                                                                                 axis=1)], 1)
+            q = positions(lim["q0"][i], v, dt)
             terminal = np.abs(q[:, -1] - ends_q[i]) if not np.isnan(ends_q[i]) else 0.0
             penalty = penalty + (terminal + np.maximum(q - lim["q_max"][i], 0).max(1)
                                  + np.maximum(lim["q_min"][i] - q, 0).max(1))

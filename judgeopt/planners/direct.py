@@ -26,7 +26,7 @@ import numpy as np
 from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
-from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts
+from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, positions
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
@@ -62,7 +62,7 @@ def default_guess(problem: Problem, env: dict[str, float]) -> Plan:
         d = end - q0[i]
         v = np.clip(d / T * (30 * s**2 - 60 * s**3 + 30 * s**4), lo[i], hi[i])
         v[0], v[-1] = qd0[i], qd_end[i]
-        qs.append(q0[i] + np.concatenate([[0.0], np.cumsum(0.5 * dt * (v[:-1] + v[1:]))]))
+        qs.append(positions(q0[i], v, dt))
         vs.append(v)
     f = [np.full(n + 1, m) for m in 0.5 * (problem.vec("f_min") + problem.vec("f_max"))]
     return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
@@ -169,15 +169,7 @@ class DirectPlanner:
 
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
-        z = [m.fn(traj, env)[0] for m in self.members]
-        if np.isinf(self.problem.pessimism):
-            out = z[0]
-            for zi in z[1:]:
-                out = cs.fmin(out, zi)
-            return out
-        mean = sum(z) / len(z)
-        var = sum((zi - mean) ** 2 for zi in z) / len(z)
-        return mean - self.problem.pessimism * cs.sqrt(var + 1e-9)
+        return pessimistic([m.fn(traj, env)[0] for m in self.members], self.problem.pessimism, cs.sqrt, cs.fmin, 1e-9)
 
     def _pack(self, plan: Plan) -> np.ndarray:
         q, v, f = (plan.values[:, plan.columns(kind)] for kind in ("position", "velocity", "force"))

@@ -16,12 +16,19 @@ from judgeopt.planners.problem import Problem
 from judgeopt.trajectory import Plan
 
 
+def positions(q0, qdot: np.ndarray, dt: float) -> np.ndarray:
+    """Positions at the samples from the velocities at the samples (the trapezoid rule above),
+    along the last axis; q0 broadcasts over any leading (batch) axes."""
+    qdot = np.asarray(qdot, dtype=float)
+    steps = np.cumsum(0.5 * dt * (qdot[..., :-1] + qdot[..., 1:]), axis=-1)
+    return q0 + np.concatenate([np.zeros(qdot.shape[:-1] + (1,)), steps], axis=-1)
+
+
 def integrate(q0: float, qdot0: float, acc: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
     """(q, q̇) at the N + 1 sample times from the N accelerations."""
     acc = np.asarray(acc, dtype=float)
     qdot = qdot0 + np.concatenate([[0.0], np.cumsum(acc) * dt])
-    q = q0 + np.concatenate([[0.0], np.cumsum(0.5 * dt * (qdot[:-1] + qdot[1:]))])
-    return q, qdot
+    return positions(q0, qdot, dt), qdot
 
 
 def accelerations(qdot: np.ndarray, dt: float) -> np.ndarray:

@@ -36,18 +36,16 @@ from __future__ import annotations
 import io
 import json
 import math
-import os
 import platform
 import subprocess
 import sys
-import tempfile
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Sequence
 
 import numpy as np
 
-from judgeopt.files import REPO, atomic_write
+from judgeopt.files import REPO, atomic_write, save_figure
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.trajectory import Plan, PlanError
@@ -294,14 +292,4 @@ def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path
     env = ", ".join(f"{k} = {v:.3g}" for k, v in results[0].env.items()) if results else ""
     fig.suptitle(title or f"{problem.name}: q̇_max = {problem.qdot_max} m/s ({env})", fontsize=10)
     fig.tight_layout()
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.stem, suffix=path.suffix or ".png")
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=120)
-        os.replace(tmp, path)
-    finally:
-        Path(tmp).unlink(missing_ok=True)
-        plt.close(fig)
-    return path
+    return save_figure(fig, path)
