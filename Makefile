@@ -1,5 +1,5 @@
 # Every target sets up .venv first (scripts/setup.sh: idempotent, quick when already done).
-.PHONY: setup run test bench data generators
+.PHONY: setup run test bench data generators scrape
 BIN := .venv/bin
 
 setup:
@@ -28,3 +28,15 @@ data: setup
 	$(BIN)/judgeopt collect --out data/test.h5 --seed 1 --n 1000
 	$(BIN)/judgeopt collect --out data/train_random.h5 --seed 3 --n 15000
 	$(BIN)/judgeopt collect --out data/test_seed2.h5 --seed 2 --n 1000
+
+# the second task end to end (docs/tasks.md): demonstrations (about 12 min on 2 cores; resumable),
+# its judge, a generator per limit set, and both planners evaluated in simulation on 100 environments
+scrape: setup
+	$(BIN)/judgeopt collect --task scrape --out data/scrape/train.h5 --seed 0 --n 10000
+	$(BIN)/judgeopt collect --task scrape --out data/scrape/test.h5 --seed 1 --n 1000
+	$(BIN)/judgeopt collect --task scrape --out data/scrape/test_seed2.h5 --seed 2 --n 1000
+	$(BIN)/judgeopt train-judge --train data/scrape/train.h5 --test data/scrape/test.h5 --out models/scrape/judge
+	$(BIN)/judgeopt train-generator --problem problems/scrape.toml --out models/scrape/generator
+	$(BIN)/judgeopt train-generator --problem problems/scrape_slow.toml --out models/scrape/generator_slow
+	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 100 --out docs/results/scrape
+	$(BIN)/judgeopt evaluate planners --problem problems/scrape_slow.toml --n 100 --out docs/results/scrape_slow

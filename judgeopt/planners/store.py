@@ -80,7 +80,7 @@ def matches(meta: dict[str, Any], problem: Problem, judge_sha: str | None = None
     given)? A per-limit generator: trained for exactly these limits. A conditioned one: the
     conditioned limits inside its ranges, every other limit exactly its problem's."""
     trained = Problem.from_dict(meta["problem"])
-    if trained.env_names != problem.env_names:
+    if trained.task != problem.task or trained.env_names != problem.env_names:
         return False
     ranges = conditioned_ranges(meta)
     mine, theirs = trained.limits_key(), problem.limits_key()
@@ -99,11 +99,12 @@ def matches(meta: dict[str, Any], problem: Problem, judge_sha: str | None = None
 
 
 def find_generator(folder: str | Path, problem: Problem, judge_sha: str | None = None) -> Path | None:
-    """A generator in `folder` for this problem's limits (and judge), by preference: one trained
+    """A generator in `folder` or its subfolders (a task's own, e.g. models/scrape/) for this
+    problem's task and limits (and judge), by preference: one trained
     against the problem's ensemble's pessimistic score (when it names an ensemble), one trained
     for exactly these limits, one conditioned on ranges that contain them; then by name."""
     found = []
-    for js in sorted(Path(folder).glob("*.json")):
+    for js in sorted(Path(folder).rglob("*.json")):
         try:
             meta = load_generator_meta(js)
         except GeneratorFileError:
