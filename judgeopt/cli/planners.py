@@ -207,7 +207,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
         for r in results:
             if r.status not in ("solved", "generated"):
                 print(f"{r.method}: {r.message}")
-            if r.simulated_success is not None:
+            if "sim_refused" in r.info:
+                print(f"{r.method}, simulated: the simulator refused the plan ({r.info['sim_refused']}): a failure")
+            elif r.simulated_success is not None:
                 details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
                 print(f"{r.method}, simulated: {task.explain(details)}")
         if any(r.probability_source == "judge" for r in results):

@@ -61,7 +61,7 @@ def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
         cpred = [r["calibrated_success"] for r in cal]
         csim = [float(r["simulated_success"]) for r in cal]
         out.append({"row": row.name, "method": row.method, "judge": row.judge or "-",
-                    "mu": row.env_label, "n": n, "successes": k,
+                    "environment": row.env_label, "n": n, "successes": k,
                     "success_pct": 100 * k / n if n else math.nan, "ci95_low_pct": 100 * lo, "ci95_high_pct": 100 * hi,
                     "paper_pct": row.paper,
                     "predicted_mean": float(np.mean(pred)) if pred else None,
@@ -78,7 +78,7 @@ def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
 
 def markdown(summary: list[dict], title: str) -> str:
     lines = [f"### {title}", "",
-             "| row | planner | mu | simulated success | 95 % CI | paper | mean predicted | predicted - simulated | ECE "
+             "| row | planner | environment | simulated success | 95 % CI | paper | mean predicted | predicted - simulated | ECE "
              "| calibrated | calibrated - simulated | worst violation | median time |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     reused = sum(s["calibration_fitted_on_these_envs"] for s in summary)
@@ -92,7 +92,7 @@ def markdown(summary: list[dict], title: str) -> str:
         t = s["time_median_s"]
         tt = "-" if t is None or s["method"] == "random" else (f"{t * 1e3:.2f} ms" if t < 1 else f"{t:.2f} s")
         paper = f"{s['paper_pct']:g} %" if s["paper_pct"] is not None else "-"
-        lines.append(f"| {s['row']} | {s['method']} | {s['mu']} | {s['successes']}/{s['n']} ({s['success_pct']:.0f} %) "
+        lines.append(f"| {s['row']} | {s['method']} | {s['environment']} | {s['successes']}/{s['n']} ({s['success_pct']:.0f} %) "
                      f"| {s['ci95_low_pct']:.0f}-{s['ci95_high_pct']:.0f} % | {paper} | {pred} | {gap} | {ece} | {cmean} | {cgap} "
                      f"| {viol} | {tt} |")
     if reused:  # the calibration saw some of these very environments: not a held-out test

@@ -20,8 +20,9 @@ from judgeopt.evaluate.batch import plan_chunk
 from judgeopt.files import atomic_write
 from judgeopt.parallel import run_chunks
 from judgeopt.planners.problem import Problem
+from judgeopt.tasks import get_task
 
-Y_RANGE = (0.10, 0.28)  # the paper's Table 4 / 5 object positions
+Y_RANGE = get_task("scoop").env_ranges()["y_obj"]  # the paper's Table 4 / 5 object positions
 
 
 @dataclass(frozen=True)
@@ -43,7 +44,7 @@ class Row:
 
     @property
     def env_label(self) -> str:
-        return "problem's" if self.mu is None else f"[{self.mu[0]:g}, {self.mu[1]:g}]"
+        return "the problem's" if self.mu is None else f"mu in [{self.mu[0]:g}, {self.mu[1]:g}]"
 
 
 def table4() -> list[Row]:

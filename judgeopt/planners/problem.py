@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
+from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
 #: a terminal position that is "wherever the object is" (the scoop's; any environment variable may be named)
 Y_OBJ = "y_obj"
@@ -70,8 +71,8 @@ class Problem:
     name: str = "unnamed"
     description: str = ""
     task: str = DEFAULT_TASK
-    steps: int = 30
-    dt: float = 0.05
+    steps: int = DEFAULT_HORIZON
+    dt: float = DEFAULT_DT
     q0: float | list[float] = -0.03
     qdot0: float | list[float] = 0.0
     q_min: float | list[float] = -0.2

@@ -21,6 +21,7 @@ from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
+from judgeopt.trajectory import PlanError
 
 METHODS = ("amortized", "direct", "cem")
 @dataclass(frozen=True)
@@ -231,7 +232,11 @@ class Planners:
         if simulator is not None:
             for r in results:
                 if r.plan is not None:
-                    out = simulator.simulate(r.plan, env)
+                    try:
+                        out = simulator.simulate(r.plan, env)
+                    except PlanError as exc:  # a plan the arm cannot be commanded to follow fails
+                        r.simulated_success, r.info["sim_refused"] = False, str(exc)
+                        continue
                     r.simulated_success = bool(out.success)
                     r.info.update({f"sim_{k}": v for k, v in out.details.items() if isinstance(v, (bool, int, float))})
         return results

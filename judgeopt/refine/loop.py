@@ -125,7 +125,8 @@ def _outcomes(rows: list[dict], problem: Problem, k: int):
     return Dataset(np.array([r["command"] for r in rows]), np.array([r["response"] for r in rows]),
                    np.array([int(r["success"]) for r in rows]), np.array([r["env"] for r in rows]), problem.dt,
                    problem.env_names, np.array([r["env_index"] for r in rows]),
-                   meta={"source": f"judgeopt refine round {k}: planners' outcomes in simulation"})
+                   meta={"source": f"judgeopt refine round {k}: planners' outcomes in simulation"}, task=problem.task,
+                   channels=problem.channels, units={c.name: c.unit for c in problem.channel_spec})
 
 
 def _round_figures(rows: list[dict], k: int) -> list[dict]:
