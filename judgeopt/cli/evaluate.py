@@ -7,16 +7,31 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-TITLES = {"table4": "Table 4: success rate by what the judge knows (q̇_max = 1.0, y_obj in [0.10, 0.28], mu in [1, 3])",
-          "table5": "Table 5: success rate by friction range (q̇_max = 1.0, y_obj in [0.10, 0.28])",
-          "compare": "Planners on the same instances (q̇_max = {qdot_max}, y_obj in [0.10, 0.28], mu in [1, 3])",
-          "planners": "Planners on the same instances: {name} (task {task}), q̇_max = {qdot_max}, f in [{f_min}, {f_max}], "
-                      "environment {env}"}
+from judgeopt.cli.common import env_range
+
+def _table_names() -> list[str]:
+    """`planners`, `sweep` and every task's own tables (the scoop's table4, table5, compare)."""
+    from judgeopt.tasks import get_task, task_names
+
+    return ["planners", "sweep"] + sorted({name for t in task_names() for name in get_task(t).tables()})
+
+
+def _default_problem(table: str) -> str:
+    from judgeopt.tasks import get_task, task_names
+
+    for t in task_names():
+        if table in get_task(t).tables():
+            return get_task(t).tables()[table].problem
+    return "problems/paper_sim.toml"
+
+
+def _env_text(problem) -> str:
+    return ", ".join(f"{k} in {list(v) if isinstance(v, tuple) else v}" for k, v in problem.environment.items())
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.report import markdown, summarise, write_report
-    from judgeopt.evaluate.tables import TABLES, run_table
+    from judgeopt.evaluate.tables import run_table, tables
     from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.planners.problem import ProblemError, load_problem
     from judgeopt.files import resolve
@@ -25,16 +40,20 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
     if args.table == "sweep":
         return cmd_sweep(args)
-    problem = load_problem(resolve(args.problem or ("problems/paper_sim_slow.toml" if args.table == "compare"
-                                                    else "problems/paper_sim.toml")))
-    rows = TABLES[args.table]()
+    problem = load_problem(resolve(args.problem or _default_problem(args.table)))
+    available = tables(problem.task)
+    if args.table not in available:
+        raise ProblemError(f"table {args.table!r} is not one of task {problem.task!r}'s ({', '.join(available)}); "
+                           "choose another --problem or table")
+    table = available[args.table]
+    rows = table.rows()
     if args.methods:
         rows = [r for r in rows if r.method in args.methods or r.method == "random"]
     if args.rows:
         rows = [r for r in rows if r.name in args.rows]
         if not rows:
             raise ProblemError(f"--rows {args.rows}: no such rows in {args.table} (names: "
-                               f"{[r.name for r in TABLES[args.table]()]})")
+                               f"{[r.name for r in table.rows()]})")
     if args.judge_model:  # the same table against another judge (e.g. a refined one)
         rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge_model).name}", judge=args.judge_model)
                 if r.judge else r for r in rows]
@@ -45,10 +64,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     for rs in results.values():
         calibrate_rows(rs, calibrators, problem.env_names)
     summary = summarise(rows, results)
-    title = TITLES[args.table].format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
-                                      f_min=problem.f_min, f_max=problem.f_max,
-                                      env=", ".join(f"{k} in {list(v) if isinstance(v, tuple) else v}"
-                                                    for k, v in problem.environment.items()))
+    title = table.title.format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
+                               f_min=problem.f_min, f_max=problem.f_max, env=_env_text(problem))
     files = write_report(summary, out, args.table, title, results, rows)
     print(markdown(summary, title))
     print("command: judgeopt evaluate " + " ".join(f"{a}" for a in _argv(args)))
@@ -73,14 +90,14 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.files import resolve
 
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
-    mu = _mu_range(args.mu or "1,3")
+    vary = _vary(problem, args.vary) if args.vary else None
     if args.random_limits:
         ranges = limit_ranges_from_args(args, WIDE_LIMITS)
         ranges.check(problem)
         sets = random_limit_sets(args.random_limits, args.seed, ranges)
     else:
         sets = [parse_limit_set(t) for t in (args.limits or DEFAULT_LIMIT_SETS)]
-    rows, notes = sweep_rows(problem, sets, mu, args.models, args.methods or PLANNERS, args.baselines)
+    rows, notes = sweep_rows(problem, sets, vary, args.models, args.methods or PLANNERS, args.baselines)
     out = Path(args.out or "out/evaluate/sweep")
     calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
@@ -89,8 +106,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         calibrate_rows(rs, calibrators, problem.env_names)
         reassess(rs)
     summary = summarise_sweep(sets, rows, results)
-    title = (f"Held-out limit sets ({args.n} environments each, y_obj in [0.10, 0.28], mu in [{mu[0]:g}, {mu[1]:g}], "
-             f"seed {args.seed}; judge {problem.judge})")
+    env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
+    title = f"Held-out limit sets ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
     md = markdown_sweep(summary, title)
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
@@ -108,19 +125,20 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
-def _mu_range(text: str) -> tuple[float, float]:
+def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[float, float]]:
+    """--vary NAME=LO,HI checked against the task's physical range."""
     from judgeopt.planners.problem import ProblemError
-    from judgeopt.tasks.scoop.scene import ENV_RANGES
+    from judgeopt.tasks import get_task
 
-    try:
-        lo, hi = (float(v) for v in text.split(","))
-    except ValueError:
-        raise ProblemError(f"--mu {text!r}: give LO,HI (two numbers)") from None
-    plo, phi = ENV_RANGES["mu"]
+    name, (lo, hi) = item
+    physical = get_task(problem.task).env_ranges("physical")
+    if name not in problem.environment:
+        raise ProblemError(f"--vary {name}: not an environment variable of the problem ({', '.join(problem.environment)})")
+    plo, phi = physical[name]
     if not (plo <= lo <= hi <= phi):
-        raise ProblemError(f"--mu {text}: need {plo:g} <= LO <= HI <= {phi:g} (the scene's physical range, "
-                           "lower bound first)")
-    return lo, hi
+        raise ProblemError(f"--vary {name}={lo:g},{hi:g}: need {plo:g} <= LO <= HI <= {phi:g} (the scene's physical "
+                           "range, lower bound first)")
+    return name, (lo, hi)
 
 
 def _calibrators(problem, path: str | None) -> dict:
@@ -137,7 +155,7 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra = (["--problem", args.problem] if args.problem else []) + (["--methods", *args.methods] if args.methods else [])
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
         ["--judge-model", args.judge_model] if args.judge_model else [])
-    extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--mu", args.mu] if args.mu else [])
+    extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--vary", f"{args.vary[0]}={args.vary[1][0]:g},{args.vary[1][1]:g}"] if args.vary else [])
     extra += (["--random-limits", str(args.random_limits)] if args.random_limits else []) + (
         [] if args.baselines else ["--no-baselines"])
     extra += [f"--{k.replace('_', '-')} {v[0]:g},{v[1]:g}" for k, v in vars(args).items()
@@ -199,15 +217,17 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
 
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
-                       "seeded environments per row (rows with the same mu range share them). Parallel processes "
+                       "seeded environments per row (rows with the same ranges share them). Parallel processes "
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
                        "interrupted run resumes.")
-    e.add_argument("table", choices=("table4", "table5", "compare", "planners", "sweep"),
-                   help="table4, table5: the paper's tables; compare: amortised vs direct vs CEM sampling; sweep: "
-                   "held-out limit sets, with the no-judge baseline and a feasibility search in simulation")
+    e.add_argument("table", choices=_table_names(),
+                   help="planners: both planners, the CEM and the no-judge baseline (any task); sweep: held-out limit "
+                   "sets, with the no-judge baseline and a feasibility search in simulation; the scoop's table4, "
+                   "table5 (the paper's tables) and compare (planners and remedies side by side)")
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
                    "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
-    e.add_argument("--mu", help="sweep: friction range LO,HI of the environments (default 1,3)")
+    e.add_argument("--vary", type=env_range, metavar="NAME=LO,HI", help="sweep: draw this environment variable from "
+                   "LO,HI instead of the problem's range (seeded by the range: e.g. mu=1,3)")
     e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from the "
                    "--*-range ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"), WIDE_LIMITS)

@@ -175,10 +175,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"judgeopt {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    c = sub.add_parser("collect", help="run random scooping commands in simulation and save labelled demonstrations",
-                       description="Random spline scoops (paper IV-B) run on the simulated UR5, labelled by outcome. "
-                       "A grid (--per-env N at each --y-obj x --mu point, default the paper's 3 x 3) or --n random "
-                       "environments. Interrupted runs resume from OUT.partial/.")
+    c = sub.add_parser("collect", help="run a task's random demonstrations in simulation and save them labelled",
+                       description="Random demonstrations of a task (the scoop's: random spline scoops, paper IV-B) "
+                       "run on the simulated UR5, labelled by outcome. A grid (--per-env N at each point of --grid "
+                       "values, default the task's grid: the scoop's is the paper's 3 x 3) or --n random environments. "
+                       "Interrupted runs resume from OUT.partial/.")
     c.add_argument("--out", required=True, help="HDF5 file to write")
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--n", type=int, default=1000, help="number of demonstrations in random environments")

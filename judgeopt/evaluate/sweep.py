@@ -68,7 +68,8 @@ def random_limit_sets(k: int, seed: int, ranges=None) -> list[LimitSet]:
     return [parse_limit_set(",".join(f"{n}={v:.3g}" for n, v in zip(CONDITION_NAMES, d))) for d in draws]
 
 
-def sweep_rows(problem: Problem, sets: list[LimitSet], mu: tuple[float, float], models_dir: str = "models",
+def sweep_rows(problem: Problem, sets: list[LimitSet], vary: tuple[str, tuple[float, float]] | None,
+               models_dir: str = "models",
                planners=PLANNERS, baselines: bool = True) -> tuple[list[Row], list[str]]:
     """Rows for run_table (planners, no-judge, search per set) and notes on what was left out.
     A limit set that contradicts the problem's other fields is an error naming the set; one
@@ -85,9 +86,9 @@ def sweep_rows(problem: Problem, sets: list[LimitSet], mu: tuple[float, float], 
             if m == "amortized" and choose_models(p, (m,), None, None, models_dir).generator is None:
                 notes.append(f"{ls.label}: no generator in {models_dir}/ covers these limits, so no amortised row")
                 continue
-            rows.append(Row(ls.label, m, None, mu, overrides=ls.overrides))
+            rows.append(Row(ls.label, m, None, vary, overrides=ls.overrides))
         if baselines:
-            rows += [Row(ls.label, m, None, mu, overrides=ls.overrides) for m in ("nojudge", "search")]
+            rows += [Row(ls.label, m, None, vary, overrides=ls.overrides) for m in ("nojudge", "search")]
     return rows, notes
 
 

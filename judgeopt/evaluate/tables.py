@@ -1,7 +1,8 @@
-"""The paper's evaluation tables, measured in simulation: which rows, and how they are run.
+"""Evaluation tables, measured in simulation: which rows, and how they are run.
 
-A table is a list of rows; a row is a planner (or the random baseline) with a judge, on
-environments drawn from a range. Rows of one table that share a range share the very same
+A table is a list of rows; a row is a planner (or a baseline) with a judge, on environments
+drawn from the problem's ranges or one varied range. `planners` serves any task; a task adds
+its own tables (the scoop: the paper's, in judgeopt/tasks/scoop/tables.py). Rows of one table that share a range share the very same
 environments (seeded), so differences between rows are the planners', not the draws'.
 Work is split into chunks of environments, run in parallel processes (or on a Dask cluster),
 and each finished chunk is written to OUT/partial/ at once: a rerun skips what is done.
@@ -13,6 +14,7 @@ import hashlib
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -22,90 +24,63 @@ from judgeopt.parallel import run_chunks
 from judgeopt.planners.problem import Problem
 from judgeopt.tasks import get_task
 
-Y_RANGE = get_task("scoop").env_ranges()["y_obj"]  # the paper's Table 4 / 5 object positions
+
+
+class Table(NamedTuple):
+    rows: Callable[[], list]  # -> list[Row]
+    title: str  # formatted with the problem's name, task, qdot_max, f_min, f_max, env
+    problem: str = "problems/paper_sim.toml"  # the default problem
 
 
 @dataclass(frozen=True)
 class Row:
-    """One line of a table: `method` in amortized | direct | cem | random, with `judge` (a model
-    path); `overrides` change problem fields for this row only (an ablation)."""
+    """One line of a table: `method` in amortized | direct | cem | random | nojudge | search, with
+    `judge` (a model path; None: the problem's); `vary`: one environment variable's range this row
+    draws from instead of the problem's (rows with the same range share their environments);
+    `overrides` change problem fields for this row only (an ablation, a limit set)."""
 
     name: str
     method: str
     judge: str | None
-    mu: tuple[float, float] | None = (1.0, 3.0)  # None: the problem's own environment ranges (any task)
+    vary: tuple[str, tuple[float, float]] | None = None
     paper: float | None = None  # the paper's success rate for this row, in %
     overrides: tuple[tuple[str, object], ...] = ()
 
     @property
     def key(self) -> str:
         slug = "".join(c if c.isalnum() else "_" for c in self.name)
-        return f"{slug}__{self.method}__" + ("env" if self.mu is None else f"mu{self.mu[0]:g}-{self.mu[1]:g}")
+        if self.vary is None:
+            return f"{slug}__{self.method}__env"
+        name, (lo, hi) = self.vary
+        return f"{slug}__{self.method}__{name}{lo:g}-{hi:g}"
 
     @property
     def env_label(self) -> str:
-        return "the problem's" if self.mu is None else f"mu in [{self.mu[0]:g}, {self.mu[1]:g}]"
-
-
-def table4() -> list[Row]:
-    """Paper Table 4: what the judge knows, against random actions (mu in [1, 3])."""
-    rows = []
-    for name, judge, paper in (("proposed (y_obj, mu)", "models/judge_default", 100.0),
-                               ("judge sees y_obj only", "models/judge_yobj_only", 90.0),
-                               ("inverted labels", "models/judge_inverted", 0.0)):
-        rows += [Row(name, m, judge, paper=paper) for m in ("amortized", "direct")]
-    rows.append(Row("random actions", "random", None, paper=28.0))
-    # not in the paper: random plans that do satisfy the limits and end at y_obj (what the limits alone give)
-    rows.append(Row("no judge (random plans within the limits)", "nojudge", None))
-    return rows
-
-
-TABLE5_RANGES = (((1.0, 3.0), 100.0), ((3.0, 3.5), 100.0), ((0.5, 1.0), 100.0), ((3.5, 4.0), 81.0),
-                 ((0.05, 0.5), 45.0))
-
-
-def table5() -> list[Row]:
-    """Paper Table 5: friction inside and outside the training range, both planners."""
-    return [Row(f"mu in [{lo:g}, {hi:g}]", m, "models/judge_default", (lo, hi), paper)
-            for (lo, hi), paper in TABLE5_RANGES for m in ("amortized", "direct")]
-
-
-#: the remedies of docs/remedies.md, one at a time, each against the plain planner (name, method, judge, overrides)
-ENSEMBLE = (("ensemble", "models/judge_ensemble"), ("pessimism", 1.0))
-ABLATIONS = (("amortized + ensemble in its loss (mean - 1 std)", "amortized", "models/judge_default", ENSEMBLE),
-             ("direct + ensemble (mean - 1 std)", "direct", "models/judge_default", ENSEMBLE),
-             ("direct + trust region (D <= 8.5)", "direct", "models/judge_default", (("trust_region", 8.5),)),
-             ("amortized, refined judge (and a generator trained against it)", "amortized", "models/judge_refined", ()),
-             ("direct, refined judge", "direct", "models/judge_refined", ()))
-
-
-def compare() -> list[Row]:
-    """The planners side by side on the same instances (amortised, direct, the CEM sampling
-    baseline, all against the default judge), then each remedy alone. With an ensemble both
-    planners use its pessimistic score: the generator is the one trained against it (found by
-    its metadata), and it also warm-starts the direct solve."""
-    rows = [Row(m, m, "models/judge_default") for m in ("amortized", "direct", "cem")]
-    return rows + [Row(name, method, judge, overrides=o) for name, method, judge, o in ABLATIONS]
+        return "the problem's" if self.vary is None else f"{self.vary[0]} in [{self.vary[1][0]:g}, {self.vary[1][1]:g}]"
 
 
 def planners() -> list[Row]:
     """Any task: both planners and the CEM against the problem's judge, and random plans within
     the limits, in the problem's own environment ranges."""
-    return [Row(m, m, None, None) for m in ("amortized", "direct", "cem")] + [
-        Row("no judge (random plans within the limits)", "nojudge", None, None)]
+    return [Row(m, m, None) for m in ("amortized", "direct", "cem")] + [
+        Row("no judge (random plans within the limits)", "nojudge", None)]
 
 
-TABLES = {"table4": table4, "table5": table5, "compare": compare, "planners": planners}
+def tables(task: str) -> dict[str, Table]:
+    """The tables for a task's problems: `planners` for every task, and the task's own (the
+    scoop's: the paper's Tables 4 and 5 and the planner comparison)."""
+    return {"planners": Table(planners, "Planners on the same instances: {name} (task {task}), q̇_max = {qdot_max}, "
+                                        "f in [{f_min}, {f_max}], environment {env}"), **get_task(task).tables()}
 
 
 def environments(problem: Problem, row: Row, n: int, seed: int) -> np.ndarray:
-    """The row's environments: seeded by the mu range only, so rows with the same range share them
-    (no range: the problem's own environment ranges, the same for every row)."""
-    if row.mu is None:
+    """The row's environments: seeded by its varied range only, so rows with the same range share
+    them (no range: the problem's own environment ranges, the same for every row)."""
+    if row.vary is None:
         return problem.sample_env(np.random.default_rng([seed, 0, 0]), n)
-    p = problem.with_overrides(y_obj=list(Y_RANGE), mu=list(row.mu))
-    rng = np.random.default_rng([seed, int(round(row.mu[0] * 1000)), int(round(row.mu[1] * 1000))])
-    return p.sample_env(rng, n)
+    name, (lo, hi) = row.vary
+    rng = np.random.default_rng([seed, int(round(lo * 1000)), int(round(hi * 1000))])
+    return problem.with_overrides(**{name: [lo, hi]}).sample_env(rng, n)
 
 
 def _write_json(path: Path, data) -> None:

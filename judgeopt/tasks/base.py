@@ -175,6 +175,11 @@ class Task(ABC):
         a renderer override this; `simulator`: one to reuse)."""
         raise TaskError(f"task {self.name!r} has no renderer")
 
+    def tables(self) -> dict[str, Any]:
+        """The task's own evaluation tables (name -> judgeopt.evaluate.tables.Table), besides the
+        `planners` table every task has."""
+        return {}
+
     def demonstrated(self) -> dict[str, tuple[float, float]]:
         """Per channel, the range the task's random demonstrations command: what a judge trained
         on them has seen, so what limits may be relaxed to. Default: unbounded."""

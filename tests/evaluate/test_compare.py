@@ -8,7 +8,8 @@ import pytest
 
 from judgeopt.files import REPO
 from judgeopt.evaluate.report import calibration_error, reliability, summarise, write_report
-from judgeopt.evaluate.tables import Row, compare
+from judgeopt.evaluate.tables import Row
+from judgeopt.tasks.scoop.tables import compare
 from judgeopt.judge.store import load_judge
 from judgeopt.planners.cem import CEMConfig, CEMPlanner
 from judgeopt.planners.problem import load_problem

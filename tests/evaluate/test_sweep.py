@@ -60,12 +60,12 @@ def test_limit_sets_parse_and_bad_ones_are_named():
     with pytest.raises(ProblemError, match="'fast' is not a number"):
         parse_limit_set("qdot_max=fast")
     with pytest.raises(ProblemError, match="limit set 'f_min 30'"):
-        sweep_rows(PROBLEM, [parse_limit_set("f_min=30")], (1.0, 3.0))
+        sweep_rows(PROBLEM, [parse_limit_set("f_min=30")], ("mu", (1.0, 3.0)))
 
 
 def test_summary_counts_feasibility_verdicts_and_the_no_judge_rate():
     ls = LimitSet("tight", (("f_max", 9.0),))
-    rows, _ = sweep_rows(PROBLEM, [ls], (1.0, 3.0))
+    rows, _ = sweep_rows(PROBLEM, [ls], ("mu", (1.0, 3.0)))
     by = {r.method: r for r in rows}
 
     def planned(i, p, ok):
@@ -94,8 +94,8 @@ def test_summary_counts_feasibility_verdicts_and_the_no_judge_rate():
 
 
 @pytest.mark.parametrize("argv, message", [
-    (["evaluate", "sweep", "--mu", "3,1"], "lower bound first"),
-    (["evaluate", "sweep", "--mu", "1,9"], "physical range"),
+    (["evaluate", "sweep", "--vary", "mu=3,1"], "lower bound first"),
+    (["evaluate", "sweep", "--vary", "mu=1,9"], "physical range"),
     (["evaluate", "sweep", "--limits", "qdot=1"], "'qdot' is not a limit"),
     (["refine", "--sample-limits", "--f-max-range", "20,12"], "lo <= hi"),
     (["refine", "--sample-limits", "--f-max-range", "12,45"], "what the demonstrations cover"),

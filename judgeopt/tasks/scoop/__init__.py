@@ -94,6 +94,11 @@ class ScoopTask(Task):
         sim = simulator or self.simulator()
         return render_rollout(sim, plan, float(env["y_obj"]), float(env["mu"]), out, caption=caption)
 
+    def tables(self) -> dict[str, Any]:
+        from judgeopt.tasks.scoop.tables import TABLES
+
+        return dict(TABLES)
+
     def random_command(self, rng: np.random.Generator, env: Mapping[str, float],
                        settings: ScoopSettings | None = None) -> np.ndarray:
         from judgeopt.tasks.scoop.commands import random_command
