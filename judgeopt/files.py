@@ -60,9 +60,12 @@ def sha256_file(path: str | Path) -> str:
 
 
 def resolve(path: str | Path, suffixes: Sequence[str] = ("",)) -> Path:
-    """A path as given if it exists, else relative to the source checkout (shipped files)."""
+    """A path as given if it exists, else a shipped file: relative to the source checkout, or in
+    a task's own folder (`problems/paper_sim.toml` is judgeopt/tasks/scoop/problems/paper_sim.toml)."""
     p = Path(path)
     if p.is_absolute() or any(p.with_name(p.name + s).exists() for s in suffixes):
         return p
-    repo = REPO / p
-    return repo if any(repo.with_name(repo.name + s).exists() for s in suffixes) else p
+    for candidate in [REPO / p, *sorted((REPO / "judgeopt" / "tasks").glob(f"*/{p.as_posix()}"))]:
+        if any(candidate.with_name(candidate.name + s).exists() for s in suffixes):
+            return candidate
+    return p

@@ -37,7 +37,8 @@ def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits:
     """What a planner's outcomes depend on besides the environment: the method, the models'
     weights (by hash, not by path) and every limit and solver option. `over_limits`: the same
     without the limits, the key of a calibrator that takes the limits as inputs."""
-    skip = {"name", "description", "source", "environment", *SECTIONS["models"]}
+    # the task is left out: the judge's hash already tells tasks apart (and ids fitted before tasks stay valid)
+    skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
     skip |= set(LIMIT_NAMES) if over_limits else set()
     p = {k: v for k, v in problem.to_dict().items() if k not in skip}
     blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},

@@ -1,6 +1,7 @@
 """A planning problem: start state, limits, terminal state, horizon, environment, loss weights.
 
-Problems live in TOML files under `problems/` (format in problems/README.md). A file may name
+Problems live in TOML files in their task's folder (judgeopt/tasks/<task>/problems/; a shipped
+file is found as `problems/<name>.toml` from anywhere, judgeopt.files.resolve). A file may name
 `base = "other.toml"` and change only some values: `paper_sim_slow.toml` is `paper_sim.toml`
 with q̇_max = 0.4. Every field can also be overridden by name (`with_overrides`, and the CLI's
 `--qdot-max 0.4`, `--y-obj 0.2`, `--mu 2.5`).
@@ -346,7 +347,8 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
     if path in seen:
         raise ProblemError(f"{path}: `base` files form a cycle ({' -> '.join(map(str, seen + (path,)))})")
     if not path.exists():
-        raise ProblemError(f"{path}: no such problem file (shipped ones are in problems/)")
+        raise ProblemError(f"{path}: no such problem file (shipped ones: problems/paper_sim.toml, problems/scrape.toml, "
+                           "... in judgeopt/tasks/*/problems/)")
     try:
         raw = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.evaluate.report import calibration_error, reliability, summarise, write_report
 from judgeopt.evaluate.tables import Row
 from judgeopt.tasks.scoop.tables import compare
@@ -19,7 +19,7 @@ ROOT = REPO  # the source checkout
 
 @pytest.fixture(scope="module")
 def cem():
-    p = load_problem(ROOT / "problems" / "paper_sim_slow.toml")
+    p = load_problem(resolve("problems/paper_sim_slow.toml"))
     judge, _ = load_judge(ROOT / "models" / "judge_default")
     return CEMPlanner(p, judge, CEMConfig(population=64, iterations=4))
 

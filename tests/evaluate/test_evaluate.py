@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.evaluate.report import summarise, wilson, write_report
 from judgeopt.evaluate.tables import Row, environments, run_table
 from judgeopt.tasks.scoop.tables import table4, table5
@@ -25,7 +25,7 @@ def test_rows_match_the_papers_tables():
 
 
 def test_rows_with_one_range_share_their_environments():
-    p = load_problem(ROOT / "problems" / "paper_sim.toml")
+    p = load_problem(resolve("problems/paper_sim.toml"))
     a, b = environments(p, table4()[0], 5, 0), environments(p, table4()[-1], 5, 0)
     assert (a == b).all() and a[:, 0].min() >= 0.10 and a[:, 0].max() <= 0.28
     c = environments(p, table5()[-1], 5, 0)
@@ -40,7 +40,7 @@ def test_wilson_interval():
 
 @pytest.mark.slow
 def test_run_table_resumes_and_reports(tmp_path):
-    p = load_problem(ROOT / "problems" / "paper_sim.toml")
+    p = load_problem(resolve("problems/paper_sim.toml"))
     rows = [Row("random actions", "random", None), Row("proposed", "amortized", "models/judge_default")]
     res = run_table(p, rows, 4, 0, tmp_path, n_jobs=1, chunk=2, progress=False)
     assert [len(v) for v in res.values()] == [4, 4]

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.cli import main
 from judgeopt.evaluate.feasibility import SearchConfig, random_plans, search
 from judgeopt.evaluate.sweep import LimitSet, parse_limit_set, summarise_sweep, sweep_rows
@@ -14,7 +14,7 @@ from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.result import constraint_residuals
 
 ROOT = REPO  # the source checkout
-PROBLEM = load_problem(ROOT / "problems" / "paper_sim.toml")
+PROBLEM = load_problem(resolve("problems/paper_sim.toml"))
 
 
 @pytest.mark.parametrize("limits", [{}, {"qdot_max": 0.4, "f_min": 2.0, "f_max": 11.0}])

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.cli import main
 from judgeopt.planners.calibration import (CalibrationError, calibrate_rows, env_fingerprint, fit, fit_from_rows,
                                            load_calibration, save_calibration, setting_id)
@@ -47,7 +47,7 @@ def test_too_few_outcomes_is_a_clear_error():
 
 
 def test_setting_depends_on_limits_and_models_not_on_the_environment_range():
-    p = load_problem(ROOT / "problems" / "paper_sim.toml")
+    p = load_problem(resolve("problems/paper_sim.toml"))
     base = setting_id("direct", p, {"judge": "a"})
     assert setting_id("direct", p.with_overrides(mu=[0.05, 0.5]), {"judge": "a"}) == base
     assert setting_id("direct", p.with_overrides(qdot_max=0.4), {"judge": "a"}) != base
@@ -107,7 +107,7 @@ def test_calibrate_cli_fits_from_evaluation_folders_and_keeps_other_settings(tmp
 def test_planners_report_calibrated_success_for_their_setting(tmp_path):
     from judgeopt.planners.solve import Planners
 
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    problem = load_problem(resolve("problems/paper_sim.toml"))
     planners = Planners.load(problem.with_overrides(calibration=str(tmp_path / "none.json")), ("amortized",))
     setting = planners.settings["amortized"]
     save_calibration(tmp_path / "cal.json", fit_from_rows(_rows(100, setting=setting), {}, ["y_obj", "mu"]))
@@ -131,7 +131,7 @@ def test_a_map_that_loses_to_the_success_rate_reports_the_rate():
 def test_a_calibration_over_limits_learns_from_the_limits_and_covers_limits_between():
     """Outcomes that depend on f_max (the judge says 0.99 everywhere): one calibrator for the
     family of settings that differ only in their limits, with the limits as inputs."""
-    p = load_problem(ROOT / "problems" / "paper_sim.toml")
+    p = load_problem(resolve("problems/paper_sim.toml"))
     family = setting_id("direct", p, {"judge": "a"}, over_limits=True)
     assert setting_id("direct", p.with_overrides(f_max=12.0), {"judge": "a"}, over_limits=True) == family
     assert setting_id("direct", p.with_overrides(f_max=12.0), {"judge": "a"}) != setting_id("direct", p, {"judge": "a"})

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.cli import main
 from judgeopt.planners.generator import AmortizedPlanner, Generator
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
@@ -177,7 +177,7 @@ def test_shipped_conditioned_generator_obeys_each_plans_limits(name, judge_name)
     """On 200 environments with limits drawn from its ranges, every plan holds its own q̇_max,
     f_min, f_max to the soft tolerance, and ends at the object."""
     g, meta = load_generator(ROOT / "models" / name)
-    base = load_problem(ROOT / "problems" / "paper_sim.toml")
+    base = load_problem(resolve("problems/paper_sim.toml"))
     rng = np.random.default_rng(7)
     envs, lims = base.sample_env(rng, 200), g.conditioned.sample(rng, 200)
     worst = {k: 0.0 for k in (*CONDITION_NAMES, "q_end", "qdot_end")}

@@ -20,7 +20,7 @@ from judgeopt.planners.store import GeneratorFileError, find_generator, load_gen
 from judgeopt.tasks.scoop import scoop_plan
 
 ROOT = REPO  # the source checkout
-PROBLEMS = ROOT / "problems"
+PROBLEMS = REPO / "judgeopt" / "tasks" / "scoop" / "problems"
 
 
 @pytest.fixture(scope="module")

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.data.dataset import load, save
 from judgeopt.judge.casadi_fn import build_casadi_judge
 from judgeopt.judge.ensemble import EnsembleConfig, load_ensemble, pessimistic, train_ensemble
@@ -29,7 +29,7 @@ def judge():
 
 @pytest.fixture(scope="module")
 def problem():
-    return load_problem(ROOT / "problems" / "paper_sim_slow.toml")
+    return load_problem(resolve("problems/paper_sim_slow.toml"))
 
 
 def test_pessimistic_score():

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.cli import main
 from judgeopt.planners import result as result_module
 from judgeopt.planners import suggest as suggest_module
@@ -64,7 +64,7 @@ class FakePlanners:
 
 
 def test_suggest_finds_the_smallest_relaxation_that_makes_a_plan_likely():
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml").with_overrides(f_max=12.0)
+    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
     planners = FakePlanners(problem)
     found = suggest(planners, {"y_obj": 0.2, "mu": 2.0}, planners.solve({}))
     assert [s.limit for s in found] == ["f_max"]  # q̇_max and f_min change nothing here
@@ -75,7 +75,7 @@ def test_suggest_finds_the_smallest_relaxation_that_makes_a_plan_likely():
 
 
 def test_suggest_says_nothing_when_no_relaxation_helps(monkeypatch):
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml").with_overrides(f_max=12.0)
+    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
     monkeypatch.setattr(suggest_module, "LIKELY", 1.01)  # nothing is ever likely
     planners = FakePlanners(problem)
     assert suggest(planners, {"y_obj": 0.2, "mu": 2.0}, []) == []
@@ -114,7 +114,7 @@ def test_infeasible_stays_exit_3(capsys):
 def test_with_limits_plans_what_a_fresh_load_for_those_limits_plans():
     from judgeopt.planners.solve import Planners
 
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    problem = load_problem(resolve("problems/paper_sim.toml"))
     env = {"y_obj": 0.2, "mu": 2.0}
     base = Planners.load(problem, ("amortized", "direct"))
     relaxed = base.with_limits(qdot_max=0.5, f_max=20.0).solve(env)

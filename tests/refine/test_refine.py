@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from judgeopt.files import REPO
+from judgeopt.files import REPO, resolve
 from judgeopt.data.dataset import load
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.refine.loop import RefineConfig, install, refine
@@ -29,7 +29,7 @@ def test_install_needs_a_finished_round(tmp_path):
 
 @pytest.mark.slow
 def test_one_round_aggregates_fine_tunes_resumes_and_installs(tmp_path):
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    problem = load_problem(resolve("problems/paper_sim.toml"))
     cfg = RefineConfig(rounds=1, n=2, judge_epochs=1, chunk=1)
     args = (problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_default", None, tmp_path / "out", cfg)
     figs = refine(*args, n_jobs=1, progress=False)
@@ -56,7 +56,7 @@ def test_generator_fine_tuning_starts_from_a_copy():
     from judgeopt.planners.generator_train import GeneratorTrainConfig, train_generator
     from judgeopt.planners.store import load_generator
 
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    problem = load_problem(resolve("problems/paper_sim.toml"))
     judge, _ = load_judge(ROOT / "models" / "judge_default")
     init, _ = load_generator(ROOT / "models" / "generator_paper_sim")
     before = {k: v.clone() for k, v in init.state_dict().items()}
@@ -70,7 +70,7 @@ def test_generator_fine_tuning_starts_from_a_copy():
 def test_a_round_with_sampled_limits_plans_each_environment_under_its_own(tmp_path):
     from judgeopt.planners.limits import WIDE_LIMITS
 
-    problem = load_problem(ROOT / "problems" / "paper_sim.toml")
+    problem = load_problem(resolve("problems/paper_sim.toml"))
     cfg = RefineConfig(rounds=1, n=3, judge_epochs=1, chunk=3, limit_ranges=WIDE_LIMITS)
     refine(problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_default", None, tmp_path, cfg, n_jobs=1,
            progress=False)
