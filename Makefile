@@ -28,6 +28,7 @@ data: setup
 	$(BIN)/judgeopt collect --out data/test.h5 --seed 1 --n 1000
 	$(BIN)/judgeopt collect --out data/train_random.h5 --seed 3 --n 15000
 	$(BIN)/judgeopt collect --out data/test_seed2.h5 --seed 2 --n 1000
+	$(BIN)/judgeopt collect --out data/train_constant.h5 --seed 4 --n 15000 --set commands.constant_force_share=0.4
 
 # the second task end to end (docs/tasks.md): demonstrations (about 12 min on 2 cores; resumable),
 # its judge, a generator per limit set, and both planners evaluated in simulation on 100 environments
