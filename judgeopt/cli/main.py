@@ -12,6 +12,7 @@ import numpy as np
 from judgeopt import __version__
 from judgeopt.cli.common import CLIError, check_range, command_line, env_range, env_values, set_argv
 from judgeopt.tasks import DEFAULT_TASK
+from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
 
 # -- collect ---------------------------------------------------------------------------
@@ -152,12 +153,16 @@ def cmd_import_demos(args: argparse.Namespace) -> int:
                         and f.resolve() != Path(args.out).resolve()) if p.is_dir() else [p]  # not our own output
     if not paths:
         raise CLIError(f"no .csv, .h5 or .hdf5 files in {args.files}")
-    env_names = tuple(n for n in args.env_names.split(",") if n)
+    from judgeopt.tasks import get_task
+
+    task = get_task(args.task)
+    env_names = tuple(n for n in args.env_names.split(",") if n) if args.env_names else task.env_names
     try:
-        keys = parse_hdf5_keys(args.hdf5_keys, env_names)
+        keys = parse_hdf5_keys(args.hdf5_keys, env_names, task.channel_names)
     except ImportError_ as exc:
         raise CLIError(str(exc)) from None
-    ds, errors = import_demos(paths, ImportSpec(env_names, dt=args.dt, horizon=args.horizon, hdf5_keys=keys))
+    ds, errors = import_demos(paths, ImportSpec(env_names, dt=args.dt, horizon=args.horizon, hdf5_keys=keys,
+                                                task=task.name))
     for e in errors:
         print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
     if ds is None:
@@ -235,12 +240,14 @@ def build_parser() -> argparse.ArgumentParser:
                        "bad HDF5 demo groups are reported (file, row/demo group, column/field) and the rest imported.")
     m.add_argument("files", nargs="+", help="CSV or HDF5 files, or folders of them")
     m.add_argument("--out", required=True, help="HDF5 dataset to write")
-    m.add_argument("--env-names", default="y_obj,mu", help="environment columns, comma-separated (default y_obj,mu)")
+    m.add_argument("--task", default=DEFAULT_TASK, help=f"whose channels the recordings hold (default {DEFAULT_TASK}: "
+                   "y, ydot, f; `judgeopt tasks`)")
+    m.add_argument("--env-names", help="environment columns, comma-separated (default: the task's, the scoop's y_obj,mu)")
     m.add_argument("--hdf5-keys", metavar="NAME=PATH[:COL],...",
-                   help="where an HDF5 file keeps t, y, ydot, f, success, dt or an environment value, e.g. "
-                   "'y=obs/robot0_eef_pos:1,f=obs/ft:2,mu=friction' (:COL picks a column of a (T, k) array)")
-    m.add_argument("--dt", type=float, default=0.05, help="planner sample period in s")
-    m.add_argument("--horizon", type=int, default=30, help="planner steps N")
+                   help="where an HDF5 file keeps t, a channel (the scoop's y, ydot, f), success, dt or an environment "
+                   "value, e.g. 'y=obs/robot0_eef_pos:1,f=obs/ft:2,mu=friction' (:COL picks a column of a (T, k) array)")
+    m.add_argument("--dt", type=float, default=DEFAULT_DT, help="planner sample period in s")
+    m.add_argument("--horizon", type=int, default=DEFAULT_HORIZON, help="planner steps N")
     m.set_defaults(func=cmd_import_demos)
 
     from judgeopt.cli.judge import add_judge_commands

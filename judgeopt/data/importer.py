@@ -6,14 +6,18 @@ resampler (`_resample`) brings them to the planner's period, so the two formats 
 the same rules and their messages name the file and the exact place (CSV: row and column;
 HDF5: demo group and field). The file suffix picks the reader: `.h5`/`.hdf5` HDF5, else CSV.
 
+Channels are the task's (`ImportSpec.task`, default the scoop: y, ydot, f): every position and
+force channel is required, the velocities are optional (derived from their positions). Below,
+the scoop's names.
+
 CSV format (header row required, SI units, one file per demonstration or one table with a
 `demo_id` column):
 
     demo_id  optional; without it the file is one demonstration
     t        time stamps in s, strictly increasing, any rate
-    y        position along the scooping direction in m
+    y        position along the scooping direction in m (each position channel of the task)
     ydot     optional velocity in m/s (derived from y when missing)
-    f        pressing force in N
+    f        pressing force in N (each force channel)
     label    success or failure (also 1/0, true/false), the same on every row of a demonstration
     <env>    environment values (e.g. y_obj, mu), constant within a demonstration
 
@@ -44,8 +48,8 @@ is looked up only where it points (dataset at PATH, or an attribute/`env_args` k
 PATH). A (T, k) array with k > 1 needs a column. A bad demo group is reported and the others
 in the file are imported; a bad CSV file is skipped whole.
 
-Each demonstration is resampled to the planner's period (cubic interpolation of y, linear
-of f) from its first time stamp over N·dt; a shorter one is held at its last position (at
+Each demonstration is resampled to the planner's period (cubic interpolation of each position,
+linear of each force) from its first time stamp over N·dt; a shorter one is held at its last position (at
 rest) and force. Recorded values are stored as both commands and responses: a recording is
 what the tool did.
 """
@@ -63,15 +67,13 @@ import numpy as np
 from scipy.interpolate import CubicSpline
 
 from judgeopt.data.dataset import Dataset
-from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
+from judgeopt.tasks import DEFAULT_TASK, get_task
+from judgeopt.trajectory import CHANNELS, DEFAULT_DT, DEFAULT_HORIZON, Channel
 
 LABELS = {"success": 1, "1": 1, "true": 1, "failure": 0, "0": 0, "false": 0}
-REQUIRED = ("t", "y", "f", "label")
-#: plausible magnitudes: a value beyond these is a unit mistake (mm, mm/s, N·10) more likely than a motion
-LIMITS = {"y": 5.0, "ydot": 10.0, "f": 1000.0}
+#: plausible magnitudes by channel kind: a value beyond is a unit mistake (mm, mm/s, N·10) more likely than a motion
+LIMITS = {"position": 5.0, "velocity": 10.0, "force": 1000.0}
 HDF5_SUFFIXES = (".h5", ".hdf5")
-#: names `--hdf5-keys` may map besides the environment names
-HDF5_NAMES = ("t", "y", "ydot", "f", "success", "dt")
 
 
 class ImportError_(ValueError):
@@ -85,6 +87,24 @@ class ImportSpec:
     horizon: int = DEFAULT_HORIZON
     #: HDF5 name -> "PATH" or "PATH:COLUMN" (see the module docstring); unmapped names use their defaults
     hdf5_keys: Mapping[str, str] = field(default_factory=dict)
+    #: whose channels the recordings hold (positions and forces required, velocities optional)
+    task: str = DEFAULT_TASK
+
+    @property
+    def channels(self) -> tuple[Channel, ...]:
+        return get_task(self.task).channels
+
+    def names(self, *kinds: str) -> tuple[str, ...]:
+        return tuple(c.name for c in self.channels if c.kind in kinds)
+
+    @property
+    def required(self) -> tuple[str, ...]:
+        """CSV columns every file must have."""
+        return ("t", *self.names("position", "force"), "label")
+
+    @property
+    def limits(self) -> dict[str, float]:
+        return {c.name: LIMITS[c.kind] for c in self.channels}
 
 
 @dataclass
@@ -104,16 +124,16 @@ class RawDemo:
 # -- the shared checks ------------------------------------------------------------------------------
 def _check(raw: RawDemo, spec: ImportSpec) -> tuple[np.ndarray, int, np.ndarray]:
     """Validate one demonstration (finite, plausible units, increasing time, constant environment)
-    and resample it: the (N + 1, 3) [y, ydot, f] array, its label and environment values."""
+    and resample it: the (N + 1, channels) array, its label and environment values."""
     s = raw.series
     lengths = {c: len(a) for c, a in s.items()}
     if len(set(lengths.values())) > 1:
         raise ImportError_(f"{raw.origin}: {raw.name} has fields of different lengths {lengths}")
-    fields = [("t", s["t"]), ("y", s["y"]), ("f", s["f"]), *((c, raw.env[c]) for c in spec.env_names)]
-    if "ydot" in s:
-        fields.append(("ydot", s["ydot"]))
+    fields = [("t", s["t"]), *((c, s[c]) for c in spec.names("position", "force")),
+              *((c, raw.env[c]) for c in spec.env_names), *((c, s[c]) for c in spec.names("velocity") if c in s)]
+    limits = spec.limits
     for c, a in fields:
-        lim = LIMITS.get(c, np.inf)
+        lim = limits.get(c, np.inf)
         bad = np.flatnonzero(~np.isfinite(a) | (np.abs(np.nan_to_num(a)) > lim))
         if bad.size:
             i = int(bad[0])
@@ -146,19 +166,21 @@ def _resample(raw: RawDemo, spec: ImportSpec) -> np.ndarray:
                            f"N·dt = {T:g} s; trim it or import with a longer --horizon")
     tk = np.arange(spec.horizon + 1) * spec.dt
     inside = tk <= t[-1]
-    spline = CubicSpline(t, v["y"]) if len(t) > 2 else None
-    y = np.full(tk.shape, v["y"][-1])
-    ydot = np.zeros(tk.shape)
-    if spline is not None:
-        y[inside] = spline(tk[inside])
-    else:
-        y[inside] = np.interp(tk[inside], t, v["y"])
-    if "ydot" in v:
-        ydot[inside] = np.interp(tk[inside], t, v["ydot"])
-    else:
-        ydot[inside] = spline(tk[inside], 1) if spline is not None else (v["y"][1] - v["y"][0]) / t[1]
-    f = np.interp(tk, t, v["f"])  # holds the last force after the end
-    return np.stack([y, ydot, f], axis=1)
+    columns: dict[str, np.ndarray] = {}
+    for c in spec.channels:
+        if c.kind == "position":  # cubic through the positions; held (at rest) after the end
+            spline = CubicSpline(t, v[c.name]) if len(t) > 2 else None
+            q, qdot = np.full(tk.shape, v[c.name][-1]), np.zeros(tk.shape)
+            q[inside] = spline(tk[inside]) if spline is not None else np.interp(tk[inside], t, v[c.name])
+            velocity = next(d.name for d in spec.channels if d.of == c.name)
+            if velocity in v:
+                qdot[inside] = np.interp(tk[inside], t, v[velocity])
+            else:
+                qdot[inside] = spline(tk[inside], 1) if spline is not None else (v[c.name][1] - v[c.name][0]) / t[1]
+            columns[c.name], columns[velocity] = q, qdot
+        elif c.kind == "force":
+            columns[c.name] = np.interp(tk, t, v[c.name])  # holds the last force after the end
+    return np.stack([columns[c.name] for c in spec.channels], axis=1)
 
 
 # -- CSV --------------------------------------------------------------------------------------------
@@ -176,11 +198,12 @@ def _read(path: Path) -> tuple[list[str], list[list[str]]]:
 def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
     """Parse a CSV file into raw demonstrations (numbers and labels parsed, nothing else checked)."""
     header, rows = _read(path)
-    missing = [c for c in REQUIRED + spec.env_names if c not in header]
+    missing = [c for c in spec.required + spec.env_names if c not in header]
     if missing:
         raise ImportError_(f"{path}: missing column(s) {missing}; the header has {header}")
     col = {h: i for i, h in enumerate(header)}
-    numeric = ["t", "y", "f", *spec.env_names] + (["ydot"] if "ydot" in col else [])
+    numeric = ["t", *spec.names("position", "force"), *spec.env_names] + [
+        c for c in spec.names("velocity") if c in col]
     groups: dict[str, list[tuple[int, list[str]]]] = {}
     for r, row in enumerate(rows, start=2):  # row numbers as a spreadsheet shows them
         if len(row) != len(header):
@@ -214,7 +237,7 @@ def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
             return repr(items[i][1][col[c]])
 
         out.append(RawDemo(str(path), f"demonstration {key!r}", f"{path.name}:{key}",
-                           {c: values[c] for c in ("t", "y", "f", "ydot") if c in values},
+                           {c: values[c] for c in ("t", *spec.names("position", "force", "velocity")) if c in values},
                            {c: values[c] for c in spec.env_names}, labels.pop(), where, shown))
     return out
 
@@ -223,10 +246,12 @@ def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:,]+?)\s*(?::\s*(-?\d+)\s*)?$")
 
 
-def parse_hdf5_keys(text: str | None, env_names: Sequence[str] = ()) -> dict[str, str]:
-    """`y=obs/eef_pos:1,f=obs/ft:2` -> {"y": "obs/eef_pos:1", "f": "obs/ft:2"}, checked."""
+def parse_hdf5_keys(text: str | None, env_names: Sequence[str] = (), channels: Sequence[str] = CHANNELS) -> dict[str, str]:
+    """`y=obs/eef_pos:1,f=obs/ft:2` -> {"y": "obs/eef_pos:1", "f": "obs/ft:2"}, checked. Names
+    that may be mapped: t, the task's channels, success, dt and the environment names."""
     out: dict[str, str] = {}
-    allowed = (*HDF5_NAMES, *env_names)
+    per_step = ("t", *channels)
+    allowed = (*per_step, "success", "dt", *env_names)
     for item in filter(None, (p.strip() for p in (text or "").split(","))):
         m = _KEY.match(item)
         if not m:
@@ -236,8 +261,8 @@ def parse_hdf5_keys(text: str | None, env_names: Sequence[str] = ()) -> dict[str
             raise ImportError_(f"--hdf5-keys: unknown name {name!r}; map one of {list(allowed)}")
         if name in out:
             raise ImportError_(f"--hdf5-keys: {name!r} is mapped twice")
-        if column is not None and name not in ("t", "y", "ydot", "f"):
-            raise ImportError_(f"--hdf5-keys: a column selector is only for per-step arrays (t, y, ydot, f), "
+        if column is not None and name not in per_step:
+            raise ImportError_(f"--hdf5-keys: a column selector is only for per-step arrays ({', '.join(per_step)}), "
                                f"not {name!r}")
         out[name] = path.strip("/") + (f":{int(column)}" if column is not None else "")
     return out
@@ -383,12 +408,13 @@ def _hdf5_raw(d: _H5Demo, spec: ImportSpec) -> RawDemo:
     """One demo group as a RawDemo (arrays read, shapes and types checked, values not yet)."""
     series: dict[str, np.ndarray] = {}
     desc: dict[str, str] = {}
-    for name, required in (("y", True), ("f", True), ("ydot", False), ("t", False)):
+    wanted = [(c, True) for c in spec.names("position", "force")] + [(c, False) for c in spec.names("velocity")]
+    for name, required in (*wanted, ("t", False)):
         found = d.series(name, required)
         if found is not None:
             series[name], desc[name] = found
     if "t" not in series:
-        n = len(series["y"])
+        n = len(series[spec.names("position")[0]])
         found = d.value("dt", datasets=False)
         if found is None and "dt" in d.keys:
             raise d.fail("t", f"no attribute or env_args key {d.keys['dt']!r} for the sample period "
@@ -503,7 +529,8 @@ def import_demos(paths: Sequence[str | Path], spec: ImportSpec) -> tuple[Dataset
         return None, errors
     x = np.stack(xs)
     ds = Dataset(commands=x, responses=x.copy(), labels=np.array(labels, dtype=np.int8), env=np.stack(envs),
-                 dt=spec.dt, env_names=tuple(spec.env_names),
+                 dt=spec.dt, env_names=tuple(spec.env_names), task=spec.task,
+                 channels=tuple(c.name for c in spec.channels), units={c.name: c.unit for c in spec.channels},
                  meta={"source": "import-demos", "demo_ids": ids, "errors": errors, "files_imported": used})
     return ds, errors
 

@@ -236,3 +236,21 @@ def test_a_bad_demo_in_a_batch_is_reported_and_the_rest_imported(tmp_path, capsy
     assert ds.n == 4 and json.loads(ds.meta["demo_ids"])[:2] == ["demos.hdf5:demo_0", "example_demos.csv:demo0"]
     assert main(["import-demos", str(path), "--hdf5-keys", "speed=v", "--out", str(tmp_path / "e.h5")]) == 2
     assert "unknown name 'speed'" in capsys.readouterr().err
+
+
+def test_recordings_of_another_task_import_with_its_channels(tmp_path):
+    """The scrape's recordings: two positions and a force; velocities derived, five channels out."""
+    from judgeopt.data.importer import ImportSpec, import_demos
+
+    t = np.linspace(0, 1.2, 61)
+    rows = ["t,x,y,f,label,x_obj,y_obj,mu"] + [f"{ti:.3f},{0.3 - 0.02 * ti:.5f},{0.15 * ti:.5f},20,success,0.28,0.12,0.4"
+                                              for ti in t]
+    (tmp_path / "a.csv").write_text("\n".join(rows) + "\n")
+    ds, errors = import_demos([tmp_path / "a.csv"], ImportSpec(("x_obj", "y_obj", "mu"), task="scrape"))
+    assert errors == [] and ds.task == "scrape" and ds.channels == ("x", "y", "xdot", "ydot", "f")
+    x = ds.commands[0]
+    assert x[10, 3] == pytest.approx(0.15, abs=1e-6) and x[10, 2] == pytest.approx(-0.02, abs=1e-6)
+    assert x[-1, 3] == 0.0 and x[-1, 1] == pytest.approx(0.18, abs=1e-6)  # held at rest after the recording ends
+    (tmp_path / "b.csv").write_text("t,y,f,label,x_obj,y_obj,mu\n0,0,1,success,0.3,0.1,0.4\n0.1,0,1,success,0.3,0.1,0.4\n")
+    ds, errors = import_demos([tmp_path / "b.csv"], ImportSpec(("x_obj", "y_obj", "mu"), task="scrape"))
+    assert ds is None and "missing column(s) ['x']" in errors[0]
