@@ -45,7 +45,7 @@ class GeneratorConfig:
         return asdict(self)
 
 
-def _scalar(values: np.ndarray):
+def per_axis(values: np.ndarray):
     """One axis: a float (the arithmetic of the one-axis generators trained before tasks);
     several: a float32 tensor that broadcasts over the axes."""
     values = np.asarray(values, dtype=float)
@@ -93,9 +93,9 @@ class Generator(nn.Module):
         """(f_mid, f_half, a_scale, v_half): the problem's, or per-plan (B, 1) tensors from (B, 3)
         limits [q̇_max, f_min, f_max] (the same for every axis) for a conditioned generator."""
         if limits is None:
-            return tuple(_scalar(x) for x in (self.f_mid, self.f_half, self.a_scale, self.v_half))
+            return tuple(per_axis(x) for x in (self.f_mid, self.f_half, self.a_scale, self.v_half))
         qmax, fmin, fmax = limits[:, 0:1], limits[:, 1:2], limits[:, 2:3]
-        qdot_min = _scalar(self.problem.vec("qdot_min"))
+        qdot_min = per_axis(self.problem.vec("qdot_min"))
         return (0.5 * (fmin + fmax), 0.5 * (fmax - fmin), (qmax - qdot_min) / (4 * self.problem.dt),
                 0.5 * (qmax - qdot_min))
 
@@ -114,7 +114,7 @@ class Generator(nn.Module):
         """(B, axes) positions and velocities -> (B, forces) forces and (B, axes) accelerations.
         `en`: the scaled environment, followed by the scaled limits for a conditioned generator."""
         f_mid, f_half, a_scale, v_half = scales or self.scales(None)
-        x = torch.cat([(q - _scalar(self.q_mid)) / _scalar(self.q_half), v / v_half,
+        x = torch.cat([(q - per_axis(self.q_mid)) / per_axis(self.q_half), v / v_half,
                        torch.full_like(q[:, :1], 2 * tau - 1), en], dim=1)
         out = self.net(x)
         nf = self.n_forces

@@ -23,7 +23,7 @@ import torch
 import torch.nn.functional as F
 
 from judgeopt.judge.model import Judge
-from judgeopt.planners.generator import Generator, GeneratorConfig
+from judgeopt.planners.generator import Generator, GeneratorConfig, per_axis
 from judgeopt.planners.limits import LimitRanges
 from judgeopt.planners.dynamics import channel_order
 from judgeopt.planners.problem import FREE, Problem
@@ -55,15 +55,11 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
     parts[..., order] = x  # back to [positions, velocities, forces]
     q, v, f = parts[..., :na], parts[..., na:2 * na], parts[..., 2 * na:]
 
-    def per_axis(name: str) -> torch.Tensor | float:
-        values = pr.vec(name)
-        return float(values[0]) if values.size == 1 else torch.tensor(values, dtype=x.dtype)
-
     if lim is None:
-        qdot_max, f_min, f_max = per_axis("qdot_max"), per_axis("f_min"), per_axis("f_max")
+        qdot_max, f_min, f_max = (per_axis(pr.vec(k)) for k in ("qdot_max", "f_min", "f_max"))
     else:  # (B, 1, 1): broadcast along the steps and axes
         qdot_max, f_min, f_max = lim[:, 0:1, None], lim[:, 1:2, None], lim[:, 2:3, None]
-    qdot_min, q_min, q_max = per_axis("qdot_min"), per_axis("q_min"), per_axis("q_max")
+    qdot_min, q_min, q_max = (per_axis(pr.vec(k)) for k in ("qdot_min", "q_min", "q_max"))
     cols = [pr.env_names.index(k) for k in judge.config.env_names]
     logit = judge(x, env[:, cols])
     l1 = pr.P * F.softplus(-logit)
