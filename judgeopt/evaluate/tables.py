@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, NamedTuple
 
 import numpy as np
 
@@ -23,40 +21,8 @@ from judgeopt.files import atomic_write
 from judgeopt.parallel import run_chunks
 from judgeopt.planners.problem import Problem
 from judgeopt.tasks import get_task
+from judgeopt.tasks.tables import Row, Table
 
-
-
-class Table(NamedTuple):
-    rows: Callable[[], list]  # -> list[Row]
-    title: str  # formatted with the problem's name, task, qdot_max, f_min, f_max, env
-    problem: str = "problems/paper_sim.toml"  # the default problem
-
-
-@dataclass(frozen=True)
-class Row:
-    """One line of a table: `method` in amortized | direct | cem | random | nojudge | search, with
-    `judge` (a model path; None: the problem's); `vary`: one environment variable's range this row
-    draws from instead of the problem's (rows with the same range share their environments);
-    `overrides` change problem fields for this row only (an ablation, a limit set)."""
-
-    name: str
-    method: str
-    judge: str | None
-    vary: tuple[str, tuple[float, float]] | None = None
-    paper: float | None = None  # the paper's success rate for this row, in %
-    overrides: tuple[tuple[str, object], ...] = ()
-
-    @property
-    def key(self) -> str:
-        slug = "".join(c if c.isalnum() else "_" for c in self.name)
-        if self.vary is None:
-            return f"{slug}__{self.method}__env"
-        name, (lo, hi) = self.vary
-        return f"{slug}__{self.method}__{name}{lo:g}-{hi:g}"
-
-    @property
-    def env_label(self) -> str:
-        return "the problem's" if self.vary is None else f"{self.vary[0]} in [{self.vary[1][0]:g}, {self.vary[1][1]:g}]"
 
 
 def planners() -> list[Row]:

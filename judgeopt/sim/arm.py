@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from judgeopt.sim._quiet import c_stdout_to_stderr, pb
+from judgeopt.sim.quiet import c_stdout_to_stderr, pb
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 

@@ -6,7 +6,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 from judgeopt.sim.controller import TaskCommand
 
 FREE = np.ones(6)  # pure position control (no force axis)

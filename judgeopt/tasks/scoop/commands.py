@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judgeopt.tasks.scoop import scoop_plan
+from judgeopt.tasks.scoop.spec import scoop_plan
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON, Plan
 
 

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 from PIL import Image, ImageDraw
 
 from judgeopt.tasks.scoop.rollout import RolloutResult, Simulator

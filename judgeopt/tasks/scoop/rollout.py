@@ -23,13 +23,13 @@ from typing import Mapping
 
 import numpy as np
 import pinocchio as pin
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 
 from judgeopt.sim.arm import ArmDriver
 from judgeopt.sim.controller import ControllerConfig, TaskCommand, solve_ik
 from judgeopt.tasks.scoop.scene import Scene, SceneConfig, check_environment
 from judgeopt.tasks.base import Outcome, TaskSimulator
-from judgeopt.tasks.scoop import CHANNELS
+from judgeopt.tasks.scoop.spec import CHANNELS
 from judgeopt.trajectory import DEFAULT_DT, Plan, PlanError
 
 #: reachable range of the commanded TCP y along the scooping line (m), and pressing force (N)

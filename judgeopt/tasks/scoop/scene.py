@@ -13,11 +13,11 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 from judgeopt.sim.arm import connect, load_arm
 from judgeopt.sim.robot import SpatulaGeometry
 from judgeopt.tasks.base import EnvironmentRangeError
-from judgeopt.tasks.scoop import ENV_VARS
+from judgeopt.tasks.scoop.spec import ENV_VARS
 
 #: physical range of the environment variables the scene accepts
 ENV_RANGES = {v.name: v.physical for v in ENV_VARS}

@@ -4,7 +4,7 @@ the friction mu from their range, the object's position from the problem's."""
 
 from __future__ import annotations
 
-from judgeopt.evaluate.tables import Row, Table
+from judgeopt.tasks.tables import Row, Table
 
 PAPER_MU = ("mu", (1.0, 3.0))  # the paper's training range of the friction
 

@@ -14,7 +14,7 @@ from typing import Mapping
 
 import numpy as np
 
-from judgeopt.tasks.scrape import F_RANGE, START, V_MAX, X_RANGE, Y_RANGE
+from judgeopt.tasks.scrape.spec import F_RANGE, START, V_MAX, X_RANGE, Y_RANGE
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
 

@@ -28,12 +28,12 @@ from typing import Any, Mapping
 import numpy as np
 import pinocchio as pin
 
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 from judgeopt.sim.arm import ArmDriver, connect, load_arm
 from judgeopt.sim.controller import ControllerConfig, TaskCommand
 from judgeopt.sim.robot import SpatulaGeometry
 from judgeopt.tasks.base import Outcome, TaskSimulator
-from judgeopt.tasks.scrape import CHANNELS, START
+from judgeopt.tasks.scrape.spec import CHANNELS, START
 from judgeopt.trajectory import DEFAULT_DT, Plan, PlanError
 
 Y_EDGE = 0.24  # the plate's front edge (m)
@@ -98,9 +98,9 @@ class ScrapeSimulator(TaskSimulator):
     """One PyBullet client with the scrape scene; every rollout starts from the same snapshot."""
 
     def __init__(self, config: ScrapeConfig | None = None):
-        from judgeopt.tasks.scrape import ScrapeTask
+        from judgeopt.tasks import get_task
 
-        self.task = ScrapeTask()
+        self.task = get_task("scrape")
         self.config = cfg = config or ScrapeConfig()
         self.client = c = connect(cfg.timestep, cfg.solver_iterations)
         self.arm = load_arm(c, cfg.spatula)

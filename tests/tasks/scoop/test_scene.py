@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 from judgeopt.sim.controller import TaskCommand
 from judgeopt.tasks.scoop.scene import ENV_RANGES, EnvironmentRangeError, check_environment
 
