@@ -16,6 +16,28 @@ from typing import Sequence
 REPO = Path(__file__).resolve().parents[1]
 
 
+class OverwriteError(FileExistsError):
+    """A command would replace a file the user has not said it may replace."""
+
+
+def refuse_overwrite(paths, overwrite: bool, flag: str = "--out") -> None:
+    """Nothing already written is replaced unless the user says so: one line naming the file."""
+    if overwrite:
+        return
+    for p in map(Path, paths):
+        if p.exists():
+            raise OverwriteError(f"{p} exists: pass --overwrite to replace it, or choose another {flag}")
+
+
+def shipped(path: str | Path) -> bool:
+    """Is `path` inside the shipped models folder (written only when the user names it)?"""
+    try:
+        Path(path).resolve().relative_to((REPO / "models").resolve())
+        return True
+    except ValueError:
+        return False
+
+
 def atomic_write(path: str | Path, data: bytes | str) -> None:
     """Write `data` (text is UTF-8 encoded) to `path` through a temporary file and a rename."""
     path = Path(path)

@@ -37,6 +37,27 @@ def backend(scheduler: str | None, n_jobs: int) -> Iterator[int]:
         yield max(1, sum(client.nthreads().values()))
 
 
+@contextlib.contextmanager
+def stop_workers_on_sigterm() -> Iterator[None]:
+    """SIGTERM (a scheduler's or `kill`'s) is handled like Ctrl-C: it raises KeyboardInterrupt in
+    the main process, so joblib stops and reaps its worker processes instead of orphaning them."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 def _keyed(key: Any, fn: Callable, args: tuple) -> tuple[Any, Any]:
     return key, fn(*args)
 
@@ -56,7 +77,8 @@ def run_chunks(work: Sequence[tuple[Any, Callable, tuple]], save: Callable[[Any,
 
     size = (lambda k: sizes[k]) if sizes else (lambda k: 1)
     total = done + sum(size(k) for k, _, _ in work)
-    with backend(scheduler, n_jobs), tqdm(total=total, initial=done, desc=desc, unit=unit, disable=not progress) as bar:
+    with stop_workers_on_sigterm(), backend(scheduler, n_jobs), \
+            tqdm(total=total, initial=done, desc=desc, unit=unit, disable=not progress) as bar:
         for key, result in Parallel(return_as="generator_unordered")(delayed(_keyed)(*w) for w in work):
             save(key, result)
             out[key] = result

@@ -257,7 +257,8 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "judge's logit and the environment to the simulated success; planners then report it as "
                        "calibrated_success. Evaluate on another --seed to test it.")
     c.add_argument("folders", nargs="+", help="evaluation output folders (with partial/*.json)")
-    c.add_argument("--out", default="models/calibration_default.json")
+    c.add_argument("--out", default="out/calibration.json", help="calibration file: its other settings are kept "
+                   "unless --replace (the shipped one is models/calibration_default.json)")
     c.add_argument("--min-n", type=int, default=50, help="fewest outcomes a setting needs")
     c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "

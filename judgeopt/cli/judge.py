@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from judgeopt.cli.common import CLIError, command_line, names, positive
+from judgeopt.files import refuse_overwrite
 
 from judgeopt.tasks import DEFAULT_TASK, get_task
 
@@ -41,12 +42,13 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     from judgeopt.judge.evaluate import evaluate_judge
     from judgeopt.judge.model import JudgeConfig
     from judgeopt.files import sha256_file
-    from judgeopt.judge.store import save_judge
+    from judgeopt.judge.store import model_paths, save_judge
     from judgeopt.judge.train import TrainConfig, train_judge, write_history
 
     out = Path(args.out)
     if out.suffix in (".pt", ".json"):
         out = out.with_suffix("")
+    refuse_overwrite(model_paths(out), args.overwrite)
     torch.set_num_threads(args.jobs or os.cpu_count() or 1)
     parts = [load(p) for p in args.train]
     try:
@@ -226,7 +228,8 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
         "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.")
     t.add_argument("--train", required=True, nargs="+", help="training dataset(s) (HDF5; several are concatenated)")
     t.add_argument("--test", help="held-out test dataset (HDF5), reported every epoch")
-    t.add_argument("--out", required=True, help="model path without suffix, e.g. models/judge_default")
+    t.add_argument("--out", required=True, help="model path without suffix, e.g. out/my_judge")
+    t.add_argument("--overwrite", action="store_true", help="replace the model at --out if it exists")
     t.add_argument("--epochs", type=positive, default=TrainConfig.epochs)
     t.add_argument("--batch-size", type=positive, default=TrainConfig.batch_size)
     t.add_argument("--lr", type=float, default=TrainConfig.lr, help="peak learning rate (cosine-annealed)")
@@ -258,6 +261,7 @@ def cmd_train_ensemble(args) -> int:
     from judgeopt.files import resolve
     from judgeopt.judge.ensemble import EnsembleConfig, train_ensemble
 
+    refuse_overwrite([Path(args.out) / "ensemble.json"], args.overwrite)  # unfinished members resume
     cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap)
     out = train_ensemble(resolve(args.train), resolve(args.test) if args.test else None, args.out, cfg,
                          threads=args.jobs, progress=not args.quiet)
@@ -279,6 +283,7 @@ def add_ensemble_command(sub) -> None:
     e.add_argument("--seed", type=int, default=0)
     e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
     e.add_argument("--jobs", type=int, default=1, help="torch threads")
-    e.add_argument("--out", default="models/judge_ensemble")
+    e.add_argument("--out", default="out/judge_ensemble", help="folder (the shipped one is models/judge_ensemble)")
+    e.add_argument("--overwrite", action="store_true", help="replace a finished ensemble at --out")
     e.add_argument("--quiet", action="store_true")
     e.set_defaults(func=cmd_train_ensemble)

@@ -11,6 +11,7 @@ import numpy as np
 
 from judgeopt import __version__
 from judgeopt.cli.common import CLIError, check_range, command_line, env_range, env_values, set_argv
+from judgeopt.files import refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
@@ -51,6 +52,9 @@ def cmd_collect(args: argparse.Namespace) -> int:
         if not sep:
             raise CLIError(f"--set {item!r}: give KEY=VALUE, e.g. commands.constant_force_share=0.4")
         settings = with_setting(settings, key, value)
+    partial = Path(args.out).with_name(Path(args.out).name + ".partial")
+    if not partial.exists():  # an unfinished collection resumes; a finished file is kept
+        refuse_overwrite([args.out], args.overwrite)
     spec = CollectionSpec(task=task.name, seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges,
                           settings=settings)
     ds = collect(spec, args.out, n_jobs=args.jobs, scheduler=args.scheduler, chunk_size=args.chunk,
@@ -137,6 +141,7 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
     from judgeopt.data.plots import plot_velocity_force
 
+    refuse_overwrite([args.out], args.overwrite)
     ds = load(args.data)
     plot_velocity_force(ds, args.out, title=Path(args.data).name)
     print(f"wrote {args.out}")
@@ -155,6 +160,7 @@ def cmd_import_demos(args: argparse.Namespace) -> int:
         raise CLIError(f"no .csv, .h5 or .hdf5 files in {args.files}")
     from judgeopt.tasks import get_task
 
+    refuse_overwrite([args.out], args.overwrite)
     task = get_task(args.task)
     env_names = tuple(n for n in args.env_names.split(",") if n) if args.env_names else task.env_names
     try:
@@ -185,7 +191,8 @@ def build_parser() -> argparse.ArgumentParser:
                        "run on the simulated UR5, labelled by outcome. A grid (--per-env N at each point of --grid "
                        "values, default the task's grid: the scoop's is the paper's 3 x 3) or --n random environments. "
                        "Interrupted runs resume from OUT.partial/.")
-    c.add_argument("--out", required=True, help="HDF5 file to write")
+    c.add_argument("--out", required=True, help="HDF5 file to write (an unfinished one resumes)")
+    c.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     c.add_argument("--seed", type=int, default=0)
     c.add_argument("--n", type=int, default=1000, help="number of demonstrations in random environments")
     c.add_argument("--per-env", type=int, default=0, help="demonstrations per grid environment (makes a grid)")
@@ -227,6 +234,7 @@ def build_parser() -> argparse.ArgumentParser:
     d = sub.add_parser("plot-data", help="plot max velocity against max force coloured by label (paper Fig. 13)")
     d.add_argument("--data", required=True)
     d.add_argument("--out", default="velocity_force.png")
+    d.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     d.set_defaults(func=cmd_plot_data)
 
     m = sub.add_parser("import-demos", help="import recorded demonstrations (CSV or robomimic-style HDF5) into the "
@@ -240,6 +248,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "bad HDF5 demo groups are reported (file, row/demo group, column/field) and the rest imported.")
     m.add_argument("files", nargs="+", help="CSV or HDF5 files, or folders of them")
     m.add_argument("--out", required=True, help="HDF5 dataset to write")
+    m.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     m.add_argument("--task", default=DEFAULT_TASK, help=f"whose channels the recordings hold (default {DEFAULT_TASK}: "
                    "y, ydot, f; `judgeopt tasks`)")
     m.add_argument("--env-names", help="environment columns, comma-separated (default: the task's, the scoop's y_obj,mu)")
@@ -275,6 +284,7 @@ def main(argv: list[str] | None = None) -> int:
     from judgeopt.data.dataset import DatasetError
     from judgeopt.judge.model import JudgeError
     from judgeopt.planners.problem import ProblemError
+    from judgeopt.files import OverwriteError
     from judgeopt.tasks.base import EnvironmentRangeError, TaskError
     from judgeopt.sim.robot import RobotDescriptionError
     from judgeopt.trajectory import PlanError
@@ -284,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except (CLIError, DatasetError, JudgeError, PlanError, ProblemError, EnvironmentRangeError, RobotDescriptionError,
-            TaskError) as exc:
+            TaskError, OverwriteError) as exc:
         print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.cli.common import command_line, value_range
+from judgeopt.files import refuse_overwrite
 from judgeopt.planners.problem import AXIS_FIELDS, FORCE_FIELDS, SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
@@ -135,11 +136,27 @@ def cmd_solve(args: argparse.Namespace) -> int:
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
     if args.simulate:
-        missing = [k for k in ("y_obj", "mu") if k not in env]
+        from judgeopt.tasks import get_task
+
+        needed = get_task(problem.task).env_names
+        missing = [k for k in needed if k not in env]
         if missing:
-            raise ProblemError(f"--simulate needs the environment variables y_obj and mu; the problem lacks {missing}")
+            raise ProblemError(f"--simulate needs the environment variables {', '.join(needed)}; the problem lacks "
+                               f"{', '.join(missing)} (or pass --no-simulate)")
+    fallback = None
+    if args.method == "both" and not args.generator:
+        from judgeopt.planners.solve import choose_models
+
+        if choose_models(problem, methods, args.judge_model, None, args.models).generator is None:
+            methods, fallback = ("direct",), ("no generator covers these limits: the direct solve runs alone, from "
+                                              "its min-jerk guess (train one with `judgeopt train-generator`)")
+    several = len(methods) > 1
+    targets = [_with_method(path, m, several) for path in (args.out, args.save_json) if path for m in methods]
+    refuse_overwrite(targets + ([args.plot] if args.plot else []), args.overwrite)
     planners = Planners.load(problem, methods, judge=args.judge_model, generator=args.generator,
                              models_dir=args.models)
+    if fallback:
+        planners.notes.append(fallback)
     if args.set_calibration and not planners.calibrators:  # asked for by name, and it knows none of these planners
         fitted = sorted({c.description for c in planners.calibration_file.values()})
         raise ProblemError(f"--calibration {args.set_calibration} has no calibration for these planners (judge "
@@ -161,7 +178,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
         t_s = time.perf_counter()
         suggestions = suggest(planners, env, results)
         t_suggest = time.perf_counter() - t_s
-    several = len(results) > 1
     files = []
     for r in results:
         if r.plan is not None and args.out:
@@ -254,6 +270,9 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     from judgeopt.files import resolve
     from judgeopt.planners.store import save_generator
 
+    from judgeopt.judge.store import model_paths
+
+    refuse_overwrite(model_paths(args.out), args.overwrite)
     problem = problem_from_args(args)
     ranges = None
     given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
@@ -350,6 +369,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
     s.add_argument("--out", help="write the plan as CSV at 1 kHz (one file per method: NAME_METHOD.csv)")
+    s.add_argument("--overwrite", action="store_true", help="replace --out, --save-json and --plot files that exist")
     s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "
                    "provenance (models' sha256, git commit, command) as one JSON file (one per method: "
                    "NAME_METHOD.json); read back with judgeopt.planners.export.read_plan_json")
@@ -367,7 +387,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        description="Each epoch samples --batch environments from the problem's ranges and takes one "
                        "Adam step on L = L1 + L2. Seeded and deterministic for a given thread count.")
     add_problem_arguments(t)
-    t.add_argument("--out", required=True, help="model path stem, e.g. models/generator_slow")
+    t.add_argument("--out", required=True, help="model path stem, e.g. out/generator_slow")
+    t.add_argument("--overwrite", action="store_true", help="replace the model at --out if it exists (e.g. to "
+                   "fine-tune a generator in place with --init)")
     t.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
     t.add_argument("--epochs", type=int, default=5000)
     t.add_argument("--init", metavar="GENERATOR", help="fine-tune this generator instead of starting from scratch")
@@ -410,6 +432,7 @@ def cmd_fit_trust_region(args) -> int:
     from judgeopt.files import resolve, sha256_file
     from judgeopt.planners.trust_region import fit_trust_region, save_trust_region
 
+    refuse_overwrite([Path(args.out).with_suffix(".json")], args.overwrite)
     ds = load(resolve(args.data))
     ok = ds.commands[ds.labels == 1]
     tr = fit_trust_region(ok, args.components)
@@ -426,5 +449,7 @@ def add_trust_region_command(sub) -> None:
                        "trust region ([solver] trust_region, [models] trust_model)")
     t.add_argument("--data", default="data/train.h5")
     t.add_argument("--components", type=int, default=8)
-    t.add_argument("--out", default="models/trust_region_default")
+    t.add_argument("--out", default="out/trust_region", help="model path stem (the shipped one is "
+                   "models/trust_region_default)")
+    t.add_argument("--overwrite", action="store_true", help="replace the model at --out if it exists")
     t.set_defaults(func=cmd_fit_trust_region)

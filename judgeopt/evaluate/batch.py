@@ -13,7 +13,7 @@ from typing import Sequence
 import numpy as np
 from joblib import Parallel, delayed
 
-from judgeopt.parallel import backend, worker_cache
+from judgeopt.parallel import backend, stop_workers_on_sigterm, worker_cache
 from judgeopt.planners.problem import Problem
 
 
@@ -77,7 +77,7 @@ def plan_many(problem: Problem, envs: np.ndarray, methods: Sequence[str] = ("amo
     jobs = (delayed(plan_chunk)(problem, tuple(methods), models_dir, p, simulate, judge, i * chunk)
             for i, p in enumerate(parts))
     out: list[list[dict]] = []
-    with backend(None, n_jobs):
+    with stop_workers_on_sigterm(), backend(None, n_jobs):
         it = Parallel(return_as="generator")(jobs)
         if progress:
             from tqdm import tqdm
