@@ -20,7 +20,7 @@ import numpy as np
 
 from judgeopt.data.collect import CollectionSpec, collect
 from judgeopt.tasks.scoop.commands import random_command
-from judgeopt.sim._quiet import pb
+from judgeopt.sim.quiet import pb
 from judgeopt.tasks.scoop.rollout import Simulator
 
 
