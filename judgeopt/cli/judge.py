@@ -24,12 +24,13 @@ DEFAULT_MODEL = get_task(DEFAULT_TASK).default_judge
 def resolve_model(path: str | os.PathLike) -> Path:
     """A model path as given; the shipped default also resolves from the repository root,
     so `judgeopt test-judge` works from any folder of a source checkout."""
+    from judgeopt.files import REPO
     from judgeopt.judge.store import model_paths
 
     p = Path(path)
     if model_paths(p)[1].exists() or p.is_absolute():
         return p
-    repo = Path(__file__).resolve().parents[2] / p
+    repo = REPO / p
     return repo if model_paths(repo)[1].exists() else p
 
 
