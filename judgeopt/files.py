@@ -12,8 +12,35 @@ import tempfile
 from pathlib import Path
 from typing import Sequence
 
-#: the source checkout, where the shipped problems and models live
-REPO = Path(__file__).resolve().parents[1]
+#: the installed package: shipped models in models/, each task's problems in tasks/NAME/problems/
+PACKAGE = Path(__file__).resolve().parent
+#: the source checkout (in an installed wheel, site-packages): git provenance, data/, docs/
+REPO = PACKAGE.parent
+#: where `models/NAME` is looked up first (your own models folder), before the shipped one
+MODELS_ENV = "JUDGEOPT_MODELS"
+#: where built judge libraries and generated robot descriptions are kept
+CACHE_ENV = "JUDGEOPT_CACHE"
+
+
+def shipped_models() -> Path:
+    """The models shipped inside the package (the checkout's `models/` links here)."""
+    return PACKAGE / "models"
+
+
+def models_dir() -> Path:
+    """$JUDGEOPT_MODELS if set, else the shipped models."""
+    env = os.environ.get(MODELS_ENV)
+    return Path(env) if env else shipped_models()
+
+
+def cache_dir() -> Path:
+    """$JUDGEOPT_CACHE if set, else the platform's user cache folder (~/.cache/judgeopt on Linux)."""
+    env = os.environ.get(CACHE_ENV)
+    if env:
+        return Path(env)
+    from platformdirs import user_cache_dir
+
+    return Path(user_cache_dir("judgeopt", appauthor=False))
 
 
 class OverwriteError(FileExistsError):
@@ -32,7 +59,7 @@ def refuse_overwrite(paths, overwrite: bool, flag: str = "--out") -> None:
 def shipped(path: str | Path) -> bool:
     """Is `path` inside the shipped models folder (written only when the user names it)?"""
     try:
-        Path(path).resolve().relative_to((REPO / "models").resolve())
+        Path(path).resolve().relative_to(shipped_models().resolve())
         return True
     except ValueError:
         return False
@@ -82,12 +109,18 @@ def sha256_file(path: str | Path) -> str:
 
 
 def resolve(path: str | Path, suffixes: Sequence[str] = ("",)) -> Path:
-    """A path as given if it exists, else a shipped file: relative to the source checkout, or in
-    a task's own folder (`problems/paper_sim.toml` is judgeopt/tasks/scoop/problems/paper_sim.toml)."""
+    """A path as given if it exists, else a shipped file, so the same names work from any folder
+    and from an installed wheel: `models/NAME` in $JUDGEOPT_MODELS, then in the shipped models;
+    `problems/NAME.toml` in a task's own folder (judgeopt/tasks/scoop/problems/paper_sim.toml);
+    anything else relative to the source checkout."""
     p = Path(path)
     if p.is_absolute() or any(p.with_name(p.name + s).exists() for s in suffixes):
         return p
-    for candidate in [REPO / p, *sorted((REPO / "judgeopt" / "tasks").glob(f"*/{p.as_posix()}"))]:
+    candidates = [REPO / p, *sorted((PACKAGE / "tasks").glob(f"*/{p.as_posix()}"))]
+    if p.parts and p.parts[0] == "models":
+        rest = Path(*p.parts[1:]) if len(p.parts) > 1 else Path()
+        candidates = [models_dir() / rest, shipped_models() / rest, *candidates]
+    for candidate in candidates:
         if any(candidate.with_name(candidate.name + s).exists() for s in suffixes):
             return candidate
     return p

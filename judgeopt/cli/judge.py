@@ -22,16 +22,10 @@ DEFAULT_MODEL = get_task(DEFAULT_TASK).default_judge
 
 
 def resolve_model(path: str | os.PathLike) -> Path:
-    """A model path as given; the shipped default also resolves from the repository root,
-    so `judgeopt test-judge` works from any folder of a source checkout."""
-    from judgeopt.files import REPO
-    from judgeopt.judge.store import model_paths
+    """A model path as given, else a shipped model (`models/NAME`), from any folder."""
+    from judgeopt.files import resolve
 
-    p = Path(path)
-    if model_paths(p)[1].exists() or p.is_absolute():
-        return p
-    repo = REPO / p
-    return repo if model_paths(repo)[1].exists() else p
+    return resolve(path, (".json",))
 
 
 # -- train-judge -----------------------------------------------------------------------------

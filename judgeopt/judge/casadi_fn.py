@@ -7,7 +7,7 @@ Inputs, raw physical values as the judge was trained on:
 Outputs: logit (1x1) and prob = sigmoid(logit) (1x1). First derivatives are exact.
 
 Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py, docs/judge.md):
-  "l4casadi"   (default) l4casadi 2.0: TorchScript traces of the unrolled network (one-Linear
+  "l4casadi"   (default where installed: "auto") l4casadi 2.0: TorchScript traces of the unrolled network (one-Linear
                LSTM cell, float64) compiled into a shared library, cached per model. Its C++
                side casts inputs to float32, so inputs are sent as exact float32 hi/lo halves
                (see _split_normalized). Fastest float64 backend (0.76x torch autograd in
@@ -23,7 +23,9 @@ Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py,
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
+import logging
 import os
 import shutil
 import subprocess
@@ -42,8 +44,16 @@ from torch import nn
 from judgeopt.judge.model import Judge, JudgeError, UnrolledJudge, lstm_layer_weights
 
 BACKENDS = ("native", "compiled", "torch", "l4casadi")
-#: the fastest backend that is exact in float64, by measurement (docs/judge.md)
-DEFAULT_BACKEND = "l4casadi"
+#: "auto": l4casadi where it is installed (the fastest exact float64 backend, docs/judge.md), else native
+DEFAULT_BACKEND = "auto"
+log = logging.getLogger("judgeopt")
+
+
+def choose_backend(backend: str = DEFAULT_BACKEND) -> str:
+    """`backend` itself, or for "auto" the fastest one this installation has."""
+    if backend != "auto":
+        return backend
+    return "l4casadi" if importlib.util.find_spec("l4casadi") is not None else "native"
 
 
 class CasadiBuildError(JudgeError):
@@ -84,9 +94,10 @@ class CasadiJudge:
 
 
 def default_cache_dir() -> Path:
-    """$JUDGEOPT_CACHE, else ~/.cache/judgeopt."""
-    env = os.environ.get("JUDGEOPT_CACHE")
-    return Path(env) if env else Path.home() / ".cache" / "judgeopt"
+    """Where built libraries are kept: $JUDGEOPT_CACHE, else the platform's user cache folder."""
+    from judgeopt.files import cache_dir
+
+    return cache_dir()
 
 
 def model_hash(judge: Judge) -> str:
@@ -111,8 +122,9 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
     faster on CPU (oneDNN's fused LSTM kernel) but with ~1e-7 relative noise in value and
     gradient, which can stall a line search at tight tolerances. The other backends are float64.
     """
+    backend = choose_backend(backend)
     if backend not in BACKENDS:
-        raise JudgeError(f"unknown CasADi backend {backend!r}; choose one of {list(BACKENDS)}")
+        raise JudgeError(f"unknown CasADi backend {backend!r}; choose one of {['auto', *BACKENDS]}")
     if precision not in ("float64", "float32"):
         raise JudgeError(f"precision must be 'float64' or 'float32', got {precision!r}")
     judge = judge.eval()
@@ -196,6 +208,7 @@ def _compiled_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
         return cs.external(name, str(lib)), True, where
     if shutil.which("gcc") is None:
         raise CasadiBuildError("the 'compiled' backend needs gcc on PATH")
+    log.info("compiling the judge as C (once per judge, about 80 s; cached in %s)", where)
     fn = _native_function(judge, name)
     tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
     try:
@@ -224,8 +237,8 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
     try:
         import l4casadi
     except ImportError as exc:  # pragma: no cover - depends on the installation
-        raise CasadiBuildError(f"the 'l4casadi' backend needs l4casadi installed (scripts/setup.sh builds it), "
-                               f"or pass backend='torch' ({exc})") from exc
+        raise CasadiBuildError(f"the 'l4casadi' backend needs l4casadi (pip install 'judgeopt[l4casadi]', or "
+                               f"scripts/setup.sh); or choose --casadi-backend native ({exc})") from exc
     version = getattr(l4casadi, "__version__", "?")
     key = _cache_key(judge, "l4casadi", f"{version}|{torch.__version__}|split{_SPLIT_BITS}")
     name = f"judge_l4c_{key}"
@@ -233,6 +246,7 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
     lib = where / f"lib{name}.so"
     if (where / "complete.json").exists() and lib.exists():
         return cs.external(name, str(lib)), True, where
+    log.info("building the judge library (once per judge, about 15 s; cached in %s)", where)
     model = _SplitInput(judge)
     tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
     try:

@@ -9,14 +9,13 @@ from __future__ import annotations
 import hashlib
 import importlib.metadata
 import math
-import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from judgeopt.files import atomic_write
+from judgeopt.files import atomic_write, cache_dir as default_cache_dir
 
 
 #: Wrist inertia tensors (kg m^2, diagonal in the link frame) replacing example-robot-data's.
@@ -198,7 +197,7 @@ def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None =
     src = src.replace("package://", str(share) + "/")
     if wrist_inertia == "universal_robots":
         src = correct_wrist_inertia(src)
-    cache = Path(cache_dir or os.environ.get("JUDGEOPT_CACHE", Path.home() / ".cache" / "judgeopt"))
+    cache = Path(cache_dir or default_cache_dir())
     cache.mkdir(parents=True, exist_ok=True)
     verts = blade_vertices(g)
     mesh = cache / f"blade_{hashlib.sha1(verts.tobytes()).hexdigest()[:12]}.obj"
