@@ -85,17 +85,20 @@ def atomic_write(path: str | Path, data: bytes | str) -> None:
 
 
 def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
-    """A matplotlib figure to `path` (format from its suffix), atomically; the figure is closed."""
+    """A matplotlib figure to `path` (format from its suffix), atomically. judgeopt's plot
+    functions return `matplotlib.figure.Figure`s that pyplot does not hold; a pyplot figure is
+    closed here so a loop of saves frees them. Neither chooses nor changes the backend."""
     import io
-
-    import matplotlib.pyplot as plt
+    import sys
 
     path = Path(path)
     buf = io.BytesIO()
     try:
         fig.savefig(buf, dpi=dpi, format=(path.suffix.lstrip(".") or "png"))
     finally:
-        plt.close(fig)
+        pyplot = sys.modules.get("matplotlib.pyplot")  # a figure pyplot holds exists only once it is imported
+        if pyplot is not None:
+            pyplot.close(fig)
     atomic_write(path, buf.getvalue())
     return path
 

@@ -78,7 +78,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     import csv
     import io
 
-    from judgeopt.files import atomic_write
+    from judgeopt.files import atomic_write, save_figure
     from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, PLANNERS, markdown_sweep, parse_limit_set, plot_sweep,
                                          random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
@@ -115,7 +115,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     w.writerows(summary)
     atomic_write(out / "sweep.md", md)
     atomic_write(out / "sweep.csv", buf.getvalue())
-    png = plot_sweep(summary, out / "sweep.png", title)
+    png = save_figure(plot_sweep(summary, title), out / "sweep.png")
     for note in notes:
         print(f"note: {note}")
     print(md)

@@ -140,10 +140,11 @@ def cmd_render(args: argparse.Namespace) -> int:
 def cmd_plot_data(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
     from judgeopt.data.plots import plot_velocity_force
+    from judgeopt.files import save_figure
 
     refuse_overwrite([args.out], args.overwrite)
     ds = load(args.data)
-    plot_velocity_force(ds, args.out, title=Path(args.data).name)
+    save_figure(plot_velocity_force(ds, title=Path(args.data).name), args.out, dpi=110)
     print(f"wrote {args.out}")
     return 0
 

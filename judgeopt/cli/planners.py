@@ -191,9 +191,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
                                    planners.generator_path, command_line())
             files.append(write_json(r, problem, _with_method(args.save_json, r.method, several), prov))
     if args.plot and any(r.plan is not None for r in results):
+        from judgeopt.files import save_figure
         from judgeopt.planners.export import plot_plans
 
-        files.append(plot_plans(problem, results, args.plot))
+        files.append(save_figure(plot_plans(problem, results), args.plot))
     infeasible = any(r.status == "infeasible" for r in results)
     verdict = "infeasible" if infeasible else "unlikely" if unlikely else "likely"
     if args.json:

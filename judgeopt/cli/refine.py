@@ -6,10 +6,14 @@ import argparse
 import csv
 import io
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 def cmd_refine(args: argparse.Namespace) -> int:
-    from judgeopt.files import atomic_write
+    from judgeopt.files import atomic_write, save_figure
     from judgeopt.cli.planners import limit_ranges_from_args, problem_from_args
     from judgeopt.planners.limits import WIDE_LIMITS
     from judgeopt.files import resolve
@@ -34,7 +38,7 @@ def cmd_refine(args: argparse.Namespace) -> int:
     w.writeheader()
     w.writerows(figures)
     atomic_write(out / "refine.csv", buf.getvalue().encode())
-    plot(figures, out / "refine.png")
+    save_figure(plot(figures), out / "refine.png")
     print(md)
     print(f"wrote {out / 'refine.md'}, {out / 'refine.csv'}, {out / 'refine.png'}")
     if args.install:
@@ -61,15 +65,12 @@ def markdown(figures: list[dict]) -> str:
             "environments none of them has seen.\n\n" + "\n".join(lines) + "\n")
 
 
-def plot(figures: list[dict], path: Path) -> Path:
-    import matplotlib
+def plot(figures: list[dict]) -> Figure:
+    """Simulated and predicted success per round and planner: does refining close the gap?"""
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from judgeopt.files import save_figure
-
-    fig, ax = plt.subplots(figsize=(5, 3.5))
+    fig = Figure(figsize=(5, 3.5))
+    ax = fig.subplots()
     for m in sorted({f["method"] for f in figures}):
         fs = [f for f in figures if f["method"] == m]
         ax.plot([f["round"] for f in fs], [f["success_pct"] for f in fs], marker="o", label=f"{m}: simulated")
@@ -80,7 +81,7 @@ def plot(figures: list[dict], path: Path) -> Path:
     ax.set_ylim(0, 102)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:

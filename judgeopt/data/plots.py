@@ -1,18 +1,14 @@
-"""Plots of demonstration sets."""
+"""Plots of demonstration sets (Figures: the caller shows them or saves them with
+`judgeopt.files.save_figure`; the matplotlib backend is left to the user)."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from matplotlib.figure import Figure
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-
-from judgeopt.data.dataset import Dataset  # noqa: E402
+from judgeopt.data.dataset import Dataset
 
 
-def plot_velocity_force(ds: Dataset, out: str | Path, title: str = "") -> Path:
+def plot_velocity_force(ds: Dataset, title: str = "") -> Figure:
     """Max commanded velocity against max commanded force, coloured by outcome (paper Fig. 13),
     one panel per mu tercile so the friction's effect shows."""
     vmax = ds.commands[:, :, 1].max(axis=1)
@@ -20,7 +16,8 @@ def plot_velocity_force(ds: Dataset, out: str | Path, title: str = "") -> Path:
     mu = ds.env[:, list(ds.env_names).index("mu")] if "mu" in ds.env_names else None
     edges = [-float("inf"), 1.5, 2.5, float("inf")] if mu is not None else [None]
     panels = len(edges) - 1 if mu is not None else 1
-    fig, axes = plt.subplots(1, panels + 1, figsize=(4.2 * (panels + 1), 4), sharex=True, sharey=True)
+    fig = Figure(figsize=(4.2 * (panels + 1), 4))
+    axes = fig.subplots(1, panels + 1, sharex=True, sharey=True, squeeze=False)[0]
     groups = [("all", slice(None))]
     if mu is not None:
         names = ["mu < 1.5", "1.5 <= mu < 2.5", "mu >= 2.5"]
@@ -35,6 +32,4 @@ def plot_velocity_force(ds: Dataset, out: str | Path, title: str = "") -> Path:
     axes[0].legend(loc="lower right", markerscale=3)
     fig.suptitle(title)
     fig.tight_layout()
-    from judgeopt.files import save_figure
-
-    return save_figure(fig, out, dpi=110)
+    return fig

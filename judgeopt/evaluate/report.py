@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from judgeopt.evaluate.tables import Row
 from judgeopt.files import atomic_write, save_figure
@@ -113,9 +114,9 @@ def write_report(summary: list[dict], out: Path, name: str, title: str,
     w.writerows(summary)
     csv_path = out / f"{name}.csv"
     atomic_write(csv_path, buf.getvalue())
-    files = [md, csv_path, plot(summary, out / f"{name}.png", title)]
+    files = [md, csv_path, save_figure(plot(summary, title), out / f"{name}.png")]
     if results is not None and rows is not None:
-        files.append(plot_reliability(rows, results, out / f"{name}_reliability.png", title))
+        files.append(save_figure(plot_reliability(rows, results, title), out / f"{name}_reliability.png"))
     return files
 
 
@@ -123,15 +124,23 @@ def _label(row: Row) -> str:
     return row.name if row.name == row.method else f"{row.name} / {row.method}"
 
 
-def plot_reliability(rows: list[Row], results: dict[str, list[dict]], path: Path, title: str) -> Path:
-    """Predicted against simulated success per planner row (marker area ~ plans in the bin)."""
-    import matplotlib
+def zoomed_range(values: list[float], step: float = 0.05) -> tuple[float, float]:
+    """Axis limits around `values` in [0, 1], widened to multiples of `step` with a margin: the
+    planners' predictions crowd near 1, and on 0-1 axes their reliability points overlap."""
+    if not values:
+        return (0.0, 1.0)
+    lo = max(0.0, math.floor((min(values) - 0.4 * step) / step) * step)
+    hi = min(1.0, math.ceil((max(values) + 0.4 * step) / step) * step)
+    pad = 0.02 * (hi - lo)
+    return (lo - pad, hi + pad)
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(5.5, 5))
-    ax.plot([0, 1], [0, 1], color="0.6", lw=1, ls="--", label="calibrated")
+def plot_reliability(rows: list[Row], results: dict[str, list[dict]], title: str) -> Figure:
+    """Predicted against simulated success per planner row (marker area ~ plans in the bin), the
+    axes zoomed to the points (the same range on both, so the diagonal is the calibrated line)."""
+    fig = Figure(figsize=(5.5, 5))
+    ax = fig.subplots()
+    points: list[float] = []
     for row in rows:
         judged = _judged(results.get(row.key, []))
         if not judged:
@@ -142,29 +151,30 @@ def plot_reliability(rows: list[Row], results: dict[str, list[dict]], path: Path
                 label=f"{_label(row)} (ECE {ece:.2f})")
         ax.scatter([c["predicted"] for c in cells], [c["observed"] for c in cells],
                    s=[8 + 2 * c["n"] for c in cells], alpha=0.3)
+        points += [c[k] for c in cells for k in ("predicted", "observed")]
+    lo, hi = zoomed_range(points)
+    ax.plot([lo, hi], [lo, hi], color="0.6", lw=1, ls="--", label="calibrated")
     ax.set_xlabel("predicted success (judge)")
     ax.set_ylabel("simulated success rate")
-    ax.set_xlim(0, 1.02)
-    ax.set_ylim(-0.02, 1.02)
+    ax.set_xlim(lo, hi)
+    ax.set_ylim(lo, hi)
+    ax.set_aspect("equal")
     ax.set_title("reliability: " + title, fontsize=8)
     ax.legend(fontsize=6, loc="upper left")
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig
 
 
-def plot(summary: list[dict], path: Path, title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+def plot(summary: list[dict], title: str) -> Figure:
+    """Simulated success per row with its 95 % interval, beside the paper's figure."""
     labels = [f"{s['row']}\n{s['method']}" for s in summary]
     x = np.arange(len(summary))
     ours = np.array([s["success_pct"] for s in summary])
     err = np.clip([[s["success_pct"] - s["ci95_low_pct"] for s in summary],
                    [s["ci95_high_pct"] - s["success_pct"] for s in summary]], 0, None)  # rounding at 0 % / 100 %
     paper = np.array([np.nan if s["paper_pct"] is None else s["paper_pct"] for s in summary])
-    fig, ax = plt.subplots(figsize=(max(6, 1.0 * len(summary)), 4))
+    fig = Figure(figsize=(max(6, 1.0 * len(summary)), 4))
+    ax = fig.subplots()
     ax.bar(x - 0.2, ours, 0.4, yerr=err, capsize=3, label="judgeopt (simulated, 95 % CI)")
     ax.bar(x + 0.2, paper, 0.4, color="0.7", label="paper")
     ax.set_xticks(x, labels, fontsize=7, rotation=30, ha="right")
@@ -173,4 +183,4 @@ def plot(summary: list[dict], path: Path, title: str) -> Path:
     ax.set_title(title, fontsize=10)
     ax.legend(fontsize=8)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig

@@ -14,11 +14,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from judgeopt.evaluate.tables import Row
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 PLANNERS = ("amortized", "direct", "cem")
 #: the default held-out limit sets: none is a shipped problem's, one (q̇_max 0.6 with f_max 18 N)
@@ -176,16 +180,13 @@ def markdown_sweep(summary: list[dict], title: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def plot_sweep(summary: list[dict], path: Path, title: str) -> Path:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from judgeopt.files import save_figure
+def plot_sweep(summary: list[dict], title: str) -> Figure:
+    """Per limit set: success where a successful plan was found, and 'unlikely' where none was."""
+    from matplotlib.figure import Figure
 
     sets = list(dict.fromkeys(s["limit_set"] for s in summary))
-    fig, axes = plt.subplots(1, 2, figsize=(12, 4))
+    fig = Figure(figsize=(12, 4))
+    axes = fig.subplots(1, 2)
     width = 0.8 / (len(PLANNERS) + 1)
     x = np.arange(len(sets))
     for j, m in enumerate(PLANNERS):
@@ -203,4 +204,4 @@ def plot_sweep(summary: list[dict], path: Path, title: str) -> Path:
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
-    return save_figure(fig, path)
+    return fig

@@ -14,7 +14,7 @@ import json
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import torch
@@ -23,6 +23,9 @@ from torch import nn
 from judgeopt.data.dataset import Dataset
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, select_env
 from judgeopt.judge.store import check_compatible
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 
 @dataclass
@@ -229,12 +232,18 @@ def write_history(result: TrainResult, prefix: str | Path, title: str = "NN_judg
     json_path.write_text(json.dumps({"best_epoch": result.best_epoch, "best": result.best,
                                      "seconds": result.seconds, "train_config": result.config,
                                      "history": result.history}, indent=1) + "\n")
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    save_figure(plot_history(result, title), png_path)
+    return [csv_path, json_path, png_path]
+
+
+def plot_history(result: TrainResult, title: str = "NN_judge") -> Figure:
+    """Train/validation/test accuracy per epoch and the epoch kept (paper Fig. 6)."""
+    from matplotlib.figure import Figure
 
     ep = [r["epoch"] for r in result.history]
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig = Figure(figsize=(6, 4))
+    ax = fig.subplots()
+    keys = {k for row in result.history for k in row}
     for key, label in (("train_accuracy", "training"), ("val_accuracy", "validation"), ("test_accuracy", "test")):
         if key in keys:
             ax.plot(ep, [100 * r[key] for r in result.history], label=label)
@@ -245,5 +254,4 @@ def write_history(result: TrainResult, prefix: str | Path, title: str = "NN_judg
     ax.grid(alpha=0.3)
     ax.legend(loc="lower right")
     fig.tight_layout()
-    save_figure(fig, png_path)
-    return [csv_path, json_path, png_path]
+    return fig

@@ -1,6 +1,6 @@
 """Plans out of judgeopt: 1 kHz CSV for a real controller, a self-contained JSON record with
 provenance (so a run on a real arm can be traced back to the models, code and command that
-planned it, and replayed), and the Figs. 15/16-style plot.
+planned it, and replayed), and the Figs. 15-18-style plot (a matplotlib Figure).
 
 Plan JSON (format "judgeopt-plan", version 2; `write_json`, read back by `read_plan_json`, which
 also reads version 1, whose columns were always q, qdot, f):
@@ -41,14 +41,17 @@ import subprocess
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from judgeopt.files import REPO, atomic_write, save_figure
+from judgeopt.files import REPO, atomic_write
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.trajectory import Plan, PlanError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 PLAN_FORMAT = "judgeopt-plan"
 PLAN_VERSION = 2  # 2: the plan's columns named by the task's channels (1: always q, qdot, f)
@@ -248,13 +251,17 @@ def read_plan_json(path: str | Path) -> Plan:
     return plan
 
 
-def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path, title: str = "") -> Path:
-    """q, q̇ and f against time, the allowed region unshaded and the forbidden one grey
-    (the paper's Figs. 15 and 16), one line per method."""
-    import matplotlib
+def measured(result: PlanResult) -> np.ndarray | None:
+    """The replay's response on the plan's channels, or None (not replayed, or refused)."""
+    r = result.response
+    return r if r is not None and result.plan is not None and r.shape == result.plan.values.shape else None
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+
+def plot_plans(problem: Problem, results: Sequence[PlanResult], title: str = "") -> Figure:
+    """q, q̇ and f against time, the allowed region unshaded and the forbidden one grey
+    (the paper's Figs. 15 and 16), one line per method; where a plan was replayed, what the
+    controller measured beside what it was commanded (Figs. 17 and 18)."""
+    from matplotlib.figure import Figure
 
     bounds = {"position": ("q_min", "q_max"), "velocity": ("qdot_min", "qdot_max"), "force": ("f_min", "f_max")}
     rows = []
@@ -264,10 +271,12 @@ def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path
             else same_kind.index(c.name)
         lo, hi = (float(problem.vec(b)[i]) for b in bounds[c.kind])
         rows.append((c, f"{c.kind} {c.name} [{c.unit}]", lo, hi, i))
-    fig, axes = plt.subplots(len(rows), 1, figsize=(6.4, 2.4 * len(rows)), sharex=True)
+    fig = Figure(figsize=(6.4, 2.4 * len(rows) + 0.8), layout="constrained")
+    axes = fig.subplots(len(rows), 1, sharex=True, squeeze=False)[:, 0]
     T = problem.horizon_time
-    for ax, (channel, label, lo, hi, axis) in zip(axes, rows):
+    for j, (ax, (channel, label, lo, hi, axis)) in enumerate(zip(axes, rows)):  # j: the channel's column
         values = [getattr(r.plan, channel.name) for r in results if r.plan is not None]
+        values += [m[:, j] for m in map(measured, results) if m is not None]
         span = max(hi - lo, 1e-9)
         top = max([hi + 0.15 * span] + [float(v.max()) for v in values])
         bottom = min([lo - 0.15 * span] + [float(v.min()) for v in values])
@@ -280,16 +289,19 @@ def plot_plans(problem: Problem, results: Sequence[PlanResult], path: str | Path
             v = getattr(r.plan, channel.name)
             p = (f", p = {r.success_probability:.2f} ({r.probability_source}), {r.verdict}"
                  if r.success_probability is not None else "")
-            ax.plot(r.plan.t, v, marker=".", ms=3, label=f"{r.method}{p}")
+            m = measured(r)
+            line, = ax.plot(r.plan.t, v, marker=".", ms=3, label=f"{r.method}{p}" + (": command" if m is not None else ""))
+            if m is not None:
+                ax.plot(r.plan.t, m[:, j], color=line.get_color(), lw=2.2, alpha=0.45,
+                        label=f"{r.method}: simulated response ({'success' if r.simulated_success else 'failure'})")
         end = problem.terminal_positions(results[0].env)[axis] if results and channel.kind == "position" else np.nan
         if not np.isnan(end):
             ax.axhline(end, color="k", ls=":", lw=1, label="q_end")
         ax.set_ylabel(label)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=8, loc="upper left")
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize=7)
     axes[-1].set_xlabel("time [s]")
     axes[-1].set_xlim(0, T)
     env = ", ".join(f"{k} = {v:.3g}" for k, v in results[0].env.items()) if results else ""
     fig.suptitle(title or f"{problem.name}: q̇_max = {problem.qdot_max} m/s ({env})", fontsize=10)
-    fig.tight_layout()
-    return save_figure(fig, path)
+    return fig

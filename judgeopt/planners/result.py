@@ -60,6 +60,9 @@ class PlanResult:
     info: dict[str, Any] = field(default_factory=dict)
     success_probability: float | None = None  # the probability the tool stands behind (see assess)
     probability_source: str = ""  # "calibrated" or "judge"
+    # what the replay measured on the plan's channels and sample times (Outcome.response), to plot
+    # beside the command; not written to JSON (the plan file keeps the replay's details)
+    response: np.ndarray | None = None
 
     @property
     def verdict(self) -> str | None:

@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Sequence
 
+import numpy as np
+
 from judgeopt.files import resolve
 from judgeopt.judge.model import Judge
 from judgeopt.planners.cem import CEMPlanner
@@ -237,6 +239,6 @@ class Planners:
                     except PlanError as exc:  # a plan the arm cannot be commanded to follow fails
                         r.simulated_success, r.info["sim_refused"] = False, str(exc)
                         continue
-                    r.simulated_success = bool(out.success)
+                    r.simulated_success, r.response = bool(out.success), np.asarray(out.response, dtype=float)
                     r.info.update({f"sim_{k}": v for k, v in out.details.items() if isinstance(v, (bool, int, float))})
         return results
