@@ -59,128 +59,26 @@ from __future__ import annotations
 import csv
 import json
 import re
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Mapping, Sequence
 
 import numpy as np
-from scipy.interpolate import CubicSpline
 
 from judgeopt.data.dataset import Dataset
-from judgeopt.tasks import DEFAULT_TASK, get_task
-from judgeopt.trajectory import CHANNELS, DEFAULT_DT, DEFAULT_HORIZON, Channel
+from judgeopt.data.lerobot import LEROBOT_LABEL_HINT, is_lerobot, lerobot_demos
+from judgeopt.data.recording import (LABELS, LIMITS, ImportError_, ImportSpec, RawDemo, check, parse_keys,
+                                     refuse_done_labels, series_label, split_key)
+from judgeopt.trajectory import CHANNELS
 
-LABELS = {"success": 1, "1": 1, "true": 1, "failure": 0, "0": 0, "false": 0}
-#: plausible magnitudes by channel kind: a value beyond is a unit mistake (mm, mm/s, N·10) more likely than a motion
-LIMITS = {"position": 5.0, "velocity": 10.0, "force": 1000.0}
+__all__ = ["LABELS", "LIMITS", "HDF5_SUFFIXES", "ImportError_", "ImportSpec", "RawDemo", "import_demos",
+           "import_csv", "parse_hdf5_keys"]
+
 HDF5_SUFFIXES = (".h5", ".hdf5")
-
-
-class ImportError_(ValueError):
-    """A demonstration file that cannot be imported; the message names the file and the place in it."""
-
-
-@dataclass(frozen=True)
-class ImportSpec:
-    env_names: tuple[str, ...]
-    dt: float = DEFAULT_DT
-    horizon: int = DEFAULT_HORIZON
-    #: HDF5 name -> "PATH" or "PATH:COLUMN" (see the module docstring); unmapped names use their defaults
-    hdf5_keys: Mapping[str, str] = field(default_factory=dict)
-    #: whose channels the recordings hold (positions and forces required, velocities optional)
-    task: str = DEFAULT_TASK
-
-    @property
-    def channels(self) -> tuple[Channel, ...]:
-        return get_task(self.task).channels
-
-    def names(self, *kinds: str) -> tuple[str, ...]:
-        return tuple(c.name for c in self.channels if c.kind in kinds)
-
-    @property
-    def required(self) -> tuple[str, ...]:
-        """CSV columns every file must have."""
-        return ("t", *self.names("position", "force"), "label")
-
-    @property
-    def limits(self) -> dict[str, float]:
-        return {c.name: LIMITS[c.kind] for c in self.channels}
-
-
-@dataclass
-class RawDemo:
-    """One demonstration as read, before any check: what both readers hand to `_check`."""
-
-    origin: str  # the file, first in every message
-    name: str  # "demonstration 'demo0'" (CSV) or "demo group 'data/demo_0'" (HDF5)
-    demo_id: str  # kept in the dataset's meta
-    series: dict[str, np.ndarray]  # t, y, f and optional ydot, one value per sample
-    env: dict[str, np.ndarray]  # per environment name: per-sample values, or one value
-    label: int
-    where: Callable[[str, int], str]  # "<file>, row 5, column 'y'": where sample i of a field is
-    shown: Callable[[str, int], str] = lambda c, i: ""  # sample i of a field as the file spells it
-
-
-# -- the shared checks ------------------------------------------------------------------------------
-def _check(raw: RawDemo, spec: ImportSpec) -> tuple[np.ndarray, int, np.ndarray]:
-    """Validate one demonstration (finite, plausible units, increasing time, constant environment)
-    and resample it: the (N + 1, channels) array, its label and environment values."""
-    s = raw.series
-    lengths = {c: len(a) for c, a in s.items()}
-    if len(set(lengths.values())) > 1:
-        raise ImportError_(f"{raw.origin}: {raw.name} has fields of different lengths {lengths}")
-    fields = [("t", s["t"]), *((c, s[c]) for c in spec.names("position", "force")),
-              *((c, raw.env[c]) for c in spec.env_names), *((c, s[c]) for c in spec.names("velocity") if c in s)]
-    limits = spec.limits
-    for c, a in fields:
-        lim = limits.get(c, np.inf)
-        bad = np.flatnonzero(~np.isfinite(a) | (np.abs(np.nan_to_num(a)) > lim))
-        if bad.size:
-            i = int(bad[0])
-            if not np.isfinite(a[i]):
-                raise ImportError_(f"{raw.where(c, i)}: {raw.shown(c, i) or repr(float(a[i]))} is not finite")
-            raise ImportError_(f"{raw.where(c, i)}: {a[i]:g} is beyond {lim:g}; expected SI units (m, m/s, N)")
-    t = s["t"]
-    bad = np.flatnonzero(np.diff(t) <= 0)
-    if bad.size:
-        k = int(bad[0]) + 1
-        what = "duplicate" if t[k] == t[k - 1] else "earlier"
-        raise ImportError_(f"{raw.where('t', k)}: {what} time stamp {t[k]:g} (time stamps must increase)")
-    if len(t) < 2:
-        raise ImportError_(f"{raw.origin}: {raw.name} has {len(t)} sample(s); need at least 2")
-    env = []
-    for c in spec.env_names:
-        v = raw.env[c]
-        if np.ptp(v) > 1e-9 * max(1.0, abs(v[0])):
-            raise ImportError_(f"{raw.origin}: environment value {c!r} changes within {raw.name}")
-        env.append(float(v[0]))
-    return _resample(raw, spec), raw.label, np.array(env)
-
-
-def _resample(raw: RawDemo, spec: ImportSpec) -> np.ndarray:
-    v = raw.series
-    t = v["t"] - v["t"][0]
-    T = spec.horizon * spec.dt
-    if t[-1] > T + 1e-9:
-        raise ImportError_(f"{raw.origin}: {raw.name} lasts {t[-1]:g} s, longer than the horizon "
-                           f"N·dt = {T:g} s; trim it or import with a longer --horizon")
-    tk = np.arange(spec.horizon + 1) * spec.dt
-    inside = tk <= t[-1]
-    columns: dict[str, np.ndarray] = {}
-    for c in spec.channels:
-        if c.kind == "position":  # cubic through the positions; held (at rest) after the end
-            spline = CubicSpline(t, v[c.name]) if len(t) > 2 else None
-            q, qdot = np.full(tk.shape, v[c.name][-1]), np.zeros(tk.shape)
-            q[inside] = spline(tk[inside]) if spline is not None else np.interp(tk[inside], t, v[c.name])
-            velocity = next(d.name for d in spec.channels if d.of == c.name)
-            if velocity in v:
-                qdot[inside] = np.interp(tk[inside], t, v[velocity])
-            else:
-                qdot[inside] = spline(tk[inside], 1) if spline is not None else (v[c.name][1] - v[c.name][0]) / t[1]
-            columns[c.name], columns[velocity] = q, qdot
-        elif c.kind == "force":
-            columns[c.name] = np.interp(tk, t, v[c.name])  # holds the last force after the end
-    return np.stack([columns[c.name] for c in spec.channels], axis=1)
+#: the good demonstrations of one file: (demo id, (N + 1, channels) array, label, environment values)
+Good = list[tuple[str, np.ndarray, int, np.ndarray]]
+#: what to pass instead when an HDF5 file's labels all come from `dones`
+HDF5_LABEL_HINT = ("give each demo group a 'success' attribute, map a success flag with --hdf5-keys success=NAME, "
+                   "or label from dense rewards with --success-threshold X")
 
 
 # -- CSV --------------------------------------------------------------------------------------------
@@ -243,34 +141,10 @@ def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
 
 
 # -- HDF5 (robomimic-style) -------------------------------------------------------------------------
-_KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:,]+?)\s*(?::\s*(-?\d+)\s*)?$")
-
-
 def parse_hdf5_keys(text: str | None, env_names: Sequence[str] = (), channels: Sequence[str] = CHANNELS) -> dict[str, str]:
     """`y=obs/eef_pos:1,f=obs/ft:2` -> {"y": "obs/eef_pos:1", "f": "obs/ft:2"}, checked. Names
     that may be mapped: t, the task's channels, success, dt and the environment names."""
-    out: dict[str, str] = {}
-    per_step = ("t", *channels)
-    allowed = (*per_step, "success", "dt", *env_names)
-    for item in filter(None, (p.strip() for p in (text or "").split(","))):
-        m = _KEY.match(item)
-        if not m:
-            raise ImportError_(f"--hdf5-keys: {item!r} is not NAME=PATH or NAME=PATH:COLUMN")
-        name, path, column = m.groups()
-        if name not in allowed:
-            raise ImportError_(f"--hdf5-keys: unknown name {name!r}; map one of {list(allowed)}")
-        if name in out:
-            raise ImportError_(f"--hdf5-keys: {name!r} is mapped twice")
-        if column is not None and name not in per_step:
-            raise ImportError_(f"--hdf5-keys: a column selector is only for per-step arrays ({', '.join(per_step)}), "
-                               f"not {name!r}")
-        out[name] = path.strip("/") + (f":{int(column)}" if column is not None else "")
-    return out
-
-
-def _split(ref: str) -> tuple[str, int | None]:
-    path, _, col = ref.partition(":")
-    return path, (int(col) if col else None)
+    return parse_keys(text, env_names, channels, flag="--hdf5-keys")
 
 
 def _demo_order(name: str) -> tuple[int, str]:
@@ -292,7 +166,7 @@ class _H5Demo:
         """The dataset for `name`: the mapped path, else `name` in the group, else `obs/name`."""
         import h5py
 
-        paths = [_split(self.keys[name])[0]] if name in self.keys else [name, f"obs/{name}"]
+        paths = [split_key(self.keys[name])[0]] if name in self.keys else [name, f"obs/{name}"]
         for p in paths:
             obj = self.g.get(p)
             if isinstance(obj, h5py.Dataset):
@@ -318,7 +192,7 @@ class _H5Demo:
                                 f"another with --hdf5-keys {name}=PATH[:COLUMN]")
             return None
         ds, p = found
-        col = _split(self.keys[name])[1] if name in self.keys else None
+        col = split_key(self.keys[name])[1] if name in self.keys else None
         a = self.read(name, ds, p)
         if a.ndim == 2 and col is None and a.shape[1] == 1:
             a = a[:, 0]
@@ -373,14 +247,16 @@ def _number(d: _H5Demo, name: str, value: Any, where: str) -> np.ndarray:
     return a
 
 
-def _label(d: _H5Demo) -> int:
+def _label(d: _H5Demo, threshold: float | None) -> tuple[int, str]:
     """The success flag, from the sources the module docstring lists, in that order (a mapped
-    `success` is looked up only where it points: attribute, then dataset)."""
+    `success` is looked up only where it points: attribute, then dataset), and the done flag's
+    name when it came from `dones` (see `refuse_done_labels`). With a threshold: the rewards."""
     key = d.keys.get("success", "success")
+    mapped = "success" in d.keys
     found: tuple[Any, str] | None = None
-    if key in d.g.attrs:
+    if key in d.g.attrs and (mapped or threshold is None):
         found = d.g.attrs[key], f"attribute {key!r}"
-    names = ["success"] if "success" in d.keys else ["success", "rewards", "dones"]
+    names = ["success"] if mapped else ["rewards"] if threshold is not None else ["success", "rewards", "dones"]
     for name in names:
         if found is not None:
             break
@@ -388,7 +264,8 @@ def _label(d: _H5Demo) -> int:
         if ds is not None:
             found = d.read("success", *ds), f"dataset {ds[1]!r}"
     if found is None:
-        tried = (f"attribute or dataset {key!r}" if "success" in d.keys
+        tried = (f"attribute or dataset {key!r}" if mapped
+                 else "dataset 'rewards' (also under obs/) for --success-threshold" if threshold is not None
                  else "attribute 'success', dataset 'success', 'rewards' or 'dones' (also under obs/)")
         raise d.fail("success", f"no success flag: found no {tried}; map one with --hdf5-keys success=NAME")
     value, where = found
@@ -396,12 +273,11 @@ def _label(d: _H5Demo) -> int:
         value = value.decode(errors="replace")
     if isinstance(value, str):
         if value.strip().lower() in LABELS:
-            return LABELS[value.strip().lower()]
+            return LABELS[value.strip().lower()], ""
         raise d.fail("success", f"{where} is {value!r}, not success/failure")
-    last = _number(d, "success", value, where)[-1]
-    if last in (0.0, 1.0):
-        return int(last)
-    raise d.fail("success", f"{where}: last value {last:g} is neither 1 (success) nor 0 (failure)")
+    label = series_label(_number(d, "success", value, where), f"{d.ctx}, field 'success': {where}", threshold)
+    done = not mapped and where.startswith("dataset") and where.strip("'").split("/")[-1] == "dones"
+    return label, "dones" if done else ""
 
 
 def _hdf5_raw(d: _H5Demo, spec: ImportSpec) -> RawDemo:
@@ -444,7 +320,7 @@ def _hdf5_raw(d: _H5Demo, spec: ImportSpec) -> RawDemo:
                          "group, a dataset, a key of env_args or an attribute of 'data'; map one with "
                          f"--hdf5-keys {name}=NAME")
         env[name], desc[name] = _number(d, name, *found), found[1]
-    label = _label(d)
+    label, done = _label(d, spec.success_threshold)
 
     def where(c: str, i: int) -> str:
         at = f", sample {i}" if len(series.get(c, env.get(c, ()))) > 1 else ""
@@ -452,10 +328,10 @@ def _hdf5_raw(d: _H5Demo, spec: ImportSpec) -> RawDemo:
 
     group = d.g.name.lstrip("/")
     return RawDemo(str(d.path), f"demo group {group!r}", f"{d.path.name}:{group.split('/')[-1]}",
-                   series, env, label, where)
+                   series, env, label, where, label_from_done=done)
 
 
-def _hdf5_file(path: Path, spec: ImportSpec) -> tuple[list[tuple[str, np.ndarray, int, np.ndarray]], list[str]]:
+def _hdf5_file(path: Path, spec: ImportSpec) -> tuple[Good, list[str]]:
     """Every good demo group of one file, and one message per bad one (or one for the file)."""
     import h5py
 
@@ -463,7 +339,7 @@ def _hdf5_file(path: Path, spec: ImportSpec) -> tuple[list[tuple[str, np.ndarray
         h = h5py.File(path, "r")
     except (OSError, ValueError) as exc:
         return [], [f"{path}: not a readable HDF5 file ({exc})"]
-    good, errors = [], []
+    errors: list[str] = []
     with h:
         data = h.get("data")
         if not isinstance(data, h5py.Group):
@@ -481,29 +357,75 @@ def _hdf5_file(path: Path, spec: ImportSpec) -> tuple[list[tuple[str, np.ndarray
         names = sorted((n for n, g in data.items() if isinstance(g, h5py.Group)), key=_demo_order)
         if not names:
             return [], [f"{path}: the 'data' group holds no demo groups (data/demo_0, data/demo_1, ...)"]
+        if spec.filter_key is not None:
+            try:
+                names, errors = _filtered(h, path, spec.filter_key, names)
+            except ImportError_ as exc:
+                return [], [str(exc)]
+        raws = []
         for name in names:
             d = _H5Demo(path, data, data[name], env_args, spec.hdf5_keys)
             try:
-                raw_demo = _hdf5_raw(d, spec)
-                x, label, env = _check(raw_demo, spec)
+                raws.append(_hdf5_raw(d, spec))
             except ImportError_ as exc:
                 errors.append(str(exc))
-                continue
             except (OSError, KeyError, RuntimeError) as exc:  # a damaged file: h5py's own read errors
                 errors.append(f"{d.ctx}: cannot read ({exc})")
-                continue
-            good.append((raw_demo.demo_id, x, label, env))
-    return good, errors
+    good, bad = _checked(raws, spec, str(path), HDF5_LABEL_HINT)
+    return good, errors + bad
 
 
-# -- both -------------------------------------------------------------------------------------------
-def _file(path: Path, spec: ImportSpec) -> tuple[list[tuple[str, np.ndarray, int, np.ndarray]], list[str]]:
+def _filtered(h: Any, path: Path, key: str, names: list[str]) -> tuple[list[str], list[str]]:
+    """The demo groups robomimic's filter key `mask/<key>` lists (b"demo_0", ...), in file
+    order, and one message per listed name that is not in `data`."""
+    import h5py
+
+    masks = h.get("mask")
+    keys = sorted(masks.keys()) if isinstance(masks, h5py.Group) else []
+    if key not in keys:
+        raise ImportError_(f"{path}: no filter key {key!r} (mask/{key}); the file has "
+                           + (f"{keys}" if keys else "no 'mask' group"))
+    try:
+        listed = [v.decode() if isinstance(v, (bytes, np.bytes_)) else str(v) for v in np.ravel(masks[key][()])]
+    except (OSError, TypeError, UnicodeDecodeError) as exc:
+        raise ImportError_(f"{path}, mask/{key}: not a list of demo group names ({exc})") from None
+    listed = [n.removeprefix("data/") for n in listed]
+    unknown = [n for n in listed if n not in names]
+    errors = [f"{path}, mask/{key}: lists demo group {n!r}, which is not in 'data'" for n in unknown]
+    return [n for n in names if n in set(listed)], errors
+
+
+# -- every format -----------------------------------------------------------------------------------
+def _checked(raws: Sequence[RawDemo], spec: ImportSpec, origin: str, hint: str) -> tuple[Good, list[str]]:
+    """The shared checks on every demonstration of one file or dataset; the good ones, and one
+    message per bad one (or one for all when their labels are only done flags)."""
+    good, ok, errors = [], [], []
+    for raw in raws:
+        try:
+            x, label, env = check(raw, spec)
+        except ImportError_ as exc:
+            errors.append(str(exc))
+            continue
+        good.append((raw.demo_id, x, label, env))
+        ok.append(raw)
+    refused = refuse_done_labels(origin, ok, hint)
+    return ([], errors + [refused]) if refused else (good, errors)
+
+
+def _file(path: Path, spec: ImportSpec) -> tuple[Good, list[str]]:
+    if is_lerobot(path):
+        try:
+            raws, errors = lerobot_demos(path, spec)
+        except ImportError_ as exc:
+            return [], [str(exc)]
+        good, bad = _checked(raws, spec, str(path), LEROBOT_LABEL_HINT)
+        return good, errors + bad
     if path.suffix.lower() in HDF5_SUFFIXES:
         return _hdf5_file(path, spec)
     try:  # a CSV file is imported whole or not at all
         good = []
         for raw in _csv_demos(path, spec):
-            x, label, env = _check(raw, spec)
+            x, label, env = check(raw, spec)
             good.append((raw.demo_id, x, label, env))
         return good, []
     except ImportError_ as exc:
