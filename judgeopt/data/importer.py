@@ -1,10 +1,12 @@
-"""Recorded demonstrations (CSV or robomimic-style HDF5) into the dataset format, checked sample by sample.
+"""Recorded demonstrations (CSV, robomimic-style HDF5, LeRobot v3) into the dataset format, checked sample by sample.
 
-Both readers turn a file into `RawDemo`s (per-sample arrays, environment values, a label and
-a way to say where each value came from); one checker (`_check`) validates them and one
-resampler (`_resample`) brings them to the planner's period, so the two formats are held to
-the same rules and their messages name the file and the exact place (CSV: row and column;
-HDF5: demo group and field). The file suffix picks the reader: `.h5`/`.hdf5` HDF5, else CSV.
+Every reader turns its input into `RawDemo`s (per-sample arrays, environment values, a label and
+a way to say where each value came from); one checker (`judgeopt.data.recording.check`) validates
+them, crops them to their window and resamples them to the planner's period, so every format is
+held to the same rules and its messages name the file and the exact place (CSV: row and column;
+HDF5: demo group and field; LeRobot: data file, episode, row and field). A folder with
+`meta/info.json` is read as a LeRobot dataset (`judgeopt.data.lerobot`), a `.h5`/`.hdf5` file as
+HDF5, anything else as CSV.
 
 Channels are the task's (`ImportSpec.task`, default the scoop: y, ydot, f): every position and
 force channel is required, the velocities are optional (derived from their positions). Below,
@@ -35,8 +37,8 @@ then under `obs/` (robomimic keeps low-dimensional signals in `obs/<key>`):
     f        pressing force in N, (T,)
     success  the label, the first of: attribute `success` of the demo group (true/false, 1/0 or
              "success"/"failure"); dataset `success` (its last value); dataset `rewards` (last
-             value 1 or 0); dataset `dones` (last value 1 or 0; some robomimic sets set `dones`
-             at the end of every demo, so prefer a `success` attribute there); none is an error
+             value 1 or 0); dataset `dones` (last value 1 or 0; refused when all are 1, see
+             below); none is an error
     <env>    environment values, the first of: attribute of the demo group; dataset (scalar or
              constant per-step array); key of `env_args["env_kwargs"]`, then of `env_args`
              (`env_args` is the JSON string attribute robomimic puts on `data`); attribute of `data`
@@ -48,10 +50,24 @@ is looked up only where it points (dataset at PATH, or an attribute/`env_args` k
 PATH). A (T, k) array with k > 1 needs a column. A bad demo group is reported and the others
 in the file are imported; a bad CSV file is skipped whole.
 
-Each demonstration is resampled to the planner's period (cubic interpolation of each position,
-linear of each force) from its first time stamp over N·dt; a shorter one is held at its last position (at
+Which part of a recording is kept (`ImportSpec` start/end/align/..., the command's flags):
+`--start`/`--end` S crop it (seconds after its first time stamp); `--align contact` starts it
+`--pre-contact` s (default 0.1) before the first sample where a force channel's magnitude
+exceeds `--contact-force` N (default 1), clipped at `--start`. What is kept must fit in N·dt:
+a longer window is refused with its duration and these flags, or with `--crop-to-horizon` its
+first N·dt seconds are kept. Only the kept samples must be finite and plausible.
+
+Labels from dense rewards: with `--success-threshold X` the label is 1 when the demonstration's
+largest reward (HDF5: dataset `rewards` or the mapped `success`; LeRobot: `next.reward`) is at
+least X; the largest, not the last, because a recording often goes on after the goal was
+reached. A file (or LeRobot dataset) whose labels all come from `dones` (`next.done`) and are
+all 1 is refused: robomimic's done_mode 2 sets it at the end of every demo, success or not.
+`--filter-key NAME` imports only the HDF5 demo groups robomimic's `mask/NAME` lists.
+
+The kept window is resampled to the planner's period (cubic interpolation of each position,
+linear of each force) from its start over N·dt; a shorter one is held at its last position (at
 rest) and force. Recorded values are stored as both commands and responses: a recording is
-what the tool did.
+what the tool did. `judgeopt.data.export` writes a dataset back as CSV in the format above.
 """
 
 from __future__ import annotations
@@ -257,12 +273,13 @@ def _label(d: _H5Demo, threshold: float | None) -> tuple[int, str]:
     if key in d.g.attrs and (mapped or threshold is None):
         found = d.g.attrs[key], f"attribute {key!r}"
     names = ["success"] if mapped else ["rewards"] if threshold is not None else ["success", "rewards", "dones"]
+    source = ""
     for name in names:
         if found is not None:
             break
         ds = d.dataset(name)
         if ds is not None:
-            found = d.read("success", *ds), f"dataset {ds[1]!r}"
+            found, source = (d.read("success", *ds), f"dataset {ds[1]!r}"), name
     if found is None:
         tried = (f"attribute or dataset {key!r}" if mapped
                  else "dataset 'rewards' (also under obs/) for --success-threshold" if threshold is not None
@@ -276,8 +293,7 @@ def _label(d: _H5Demo, threshold: float | None) -> tuple[int, str]:
             return LABELS[value.strip().lower()], ""
         raise d.fail("success", f"{where} is {value!r}, not success/failure")
     label = series_label(_number(d, "success", value, where), f"{d.ctx}, field 'success': {where}", threshold)
-    done = not mapped and where.startswith("dataset") and where.strip("'").split("/")[-1] == "dones"
-    return label, "dones" if done else ""
+    return label, "dones" if source == "dones" and not mapped else ""
 
 
 def _hdf5_raw(d: _H5Demo, spec: ImportSpec) -> RawDemo:

@@ -71,7 +71,7 @@ def test_the_shipped_example_imports_and_the_command_keeps_good_files(tmp_path, 
     assert rc == 0 and "missing column" in captured.err and "3 demonstrations from 1 of 2" in captured.out
     ds = load(tmp_path / "d.h5")
     assert ds.n == 3 and sorted(ds.labels.tolist()) == [0, 0, 1]
-    assert main(["import-demos", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "e.h5")]) == 2
+    assert main(["import-demos", str(tmp_path / "bad.csv"), "--out", str(tmp_path / "e.h5")]) == 5  # bad input
     assert not (tmp_path / "e.h5").exists()
 
 

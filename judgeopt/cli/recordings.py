@@ -1,0 +1,160 @@
+"""`judgeopt import-demos` and `export-demos`: recordings (CSV, robomimic-style HDF5, LeRobot v3)
+into the dataset format, and a dataset back out as CSV."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from judgeopt.cli.common import OVERWRITE, CLIError, ExitCode, command_line, out_option
+from judgeopt.files import refuse_overwrite
+from judgeopt.tasks import DEFAULT_TASK
+from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
+
+
+def recordings(files: list[str], out: str) -> list[Path]:
+    """The paths to import: files as given; a LeRobot dataset folder (meta/info.json) as one
+    path; any other folder as its .csv/.h5/.hdf5 files (not the output being written)."""
+    from judgeopt.data.importer import HDF5_SUFFIXES
+    from judgeopt.data.lerobot import is_lerobot
+
+    paths: list[Path] = []
+    for p in map(Path, files):
+        if p.is_dir() and not is_lerobot(p):
+            paths += sorted(f for f in p.iterdir() if f.suffix.lower() in (".csv", *HDF5_SUFFIXES)
+                            and f.resolve() != Path(out).resolve())
+        else:
+            paths.append(p)
+    if not paths:
+        raise CLIError(f"no .csv, .h5 or .hdf5 files or LeRobot dataset folders in {files}", ExitCode.BAD_INPUT)
+    return paths
+
+
+def import_spec(args: argparse.Namespace, paths: list[Path]) -> Any:
+    """The ImportSpec the flags describe, each flag checked against the inputs it applies to."""
+    from judgeopt.data.importer import HDF5_SUFFIXES, ImportError_, ImportSpec, parse_hdf5_keys
+    from judgeopt.data.lerobot import is_lerobot
+    from judgeopt.data.recording import parse_keys
+    from judgeopt.tasks import get_task
+
+    task = get_task(args.task)
+    hdf5 = any(p.suffix.lower() in HDF5_SUFFIXES for p in paths)
+    if args.filter_key and not hdf5:
+        raise CLIError("--filter-key selects demo groups of HDF5 files (mask/NAME); no .h5/.hdf5 file is given")
+    if args.keys and not any(is_lerobot(p) for p in paths):
+        raise CLIError("--keys maps LeRobot columns; no LeRobot dataset folder (with meta/info.json) is given "
+                       "(HDF5 files: --hdf5-keys)")
+    env_names = tuple(n for n in args.env_names.split(",") if n) if args.env_names else task.env_names
+    try:
+        return ImportSpec(
+            env_names, dt=args.dt, horizon=args.horizon, task=task.name,
+            hdf5_keys=parse_hdf5_keys(args.hdf5_keys, env_names, task.channel_names),
+            lerobot_keys=parse_keys(args.keys, env_names, task.channel_names, flag="--keys", scalars=("success",),
+                                    columns_everywhere=True),
+            start=args.start, end=args.end, align=args.align, contact_force=args.contact_force,
+            pre_contact=args.pre_contact, crop_to_horizon=args.crop_to_horizon, filter_key=args.filter_key,
+            success_threshold=args.success_threshold)
+    except ImportError_ as exc:
+        raise CLIError(str(exc)) from None
+
+
+def cmd_import_demos(args: argparse.Namespace) -> int:
+    from judgeopt.data.dataset import save
+    from judgeopt.data.importer import import_demos
+
+    paths = recordings(args.files, args.out)
+    refuse_overwrite([args.out], args.overwrite)
+    ds, errors = import_demos(paths, import_spec(args, paths))
+    for e in errors:
+        print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
+    if ds is None:
+        raise CLIError(f"nothing imported from {len(paths)} file(s): every demonstration was bad (reasons above)",
+                       ExitCode.BAD_INPUT)
+    ds.meta["command"] = command_line()
+    save(ds, args.out)
+    print(f"wrote {args.out}: {ds.n} demonstrations from {ds.meta['files_imported']} of {len(paths)} file(s) "
+          f"({len(errors)} skipped), success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, "
+          f"N = {ds.horizon}")
+    return 0
+
+
+def cmd_export_demos(args: argparse.Namespace) -> int:
+    from judgeopt.data.dataset import load
+    from judgeopt.data.export import export_csv
+
+    refuse_overwrite([args.out], args.overwrite)
+    ds = load(args.data)
+    export_csv(ds, args.out)
+    print(f"wrote {args.out}: {ds.n} demonstrations x {ds.horizon + 1} samples (dt = {ds.dt} s); import it back "
+          f"with: judgeopt import-demos {args.out} --task {ds.task} --env-names {','.join(ds.env_names)} "
+          f"--dt {ds.dt} --horizon {ds.horizon} --out FILE.h5")
+    return 0
+
+
+def add_import_flags(m: argparse.ArgumentParser) -> None:
+    """Where the recordings keep each value, and which part of them is kept."""
+    m.add_argument("--task", default=DEFAULT_TASK, help="whose channels the recordings hold (the scoop's: y [m], "
+                   "ydot [m/s], f [N]; `judgeopt tasks` lists them)")
+    m.add_argument("--env-names", metavar="A,B", help="environment values, comma-separated (default: the task's, "
+                   "the scoop's y_obj,mu)")
+    m.add_argument("--hdf5-keys", metavar="NAME=PATH[:COL],...",
+                   help="where an HDF5 file keeps t, a channel (the scoop's y, ydot, f), success, dt or an environment "
+                   "value, e.g. 'y=obs/robot0_eef_pos:1,f=obs/ft:2,mu=friction' (:COL picks a column of a (T, k) "
+                   "array; default: the names themselves, then under obs/)")
+    m.add_argument("--keys", metavar="NAME=COLUMN[:INDEX],...",
+                   help="where a LeRobot dataset keeps t, a channel, success or an environment value, e.g. "
+                   "'y=observation.state:1,f=observation.force:2,success=next.success' (:INDEX picks one element of a "
+                   "vector column; default: t from timestamp, success from next.success/next.reward/next.done, "
+                   "the rest from columns of their own name)")
+    m.add_argument("--filter-key", metavar="NAME", help="HDF5: import only the demo groups robomimic's filter key "
+                   "mask/NAME lists, e.g. train or valid (default: every demo group)")
+    m.add_argument("--success-threshold", type=float, metavar="X", help="label dense rewards: success when the "
+                   "largest reward of a demonstration (HDF5 'rewards', LeRobot next.reward) is >= X, in the reward's "
+                   "own units (default: none; the last value of the success flag, 1 or 0)")
+    w = m.add_argument_group("which part of a recording is kept (then resampled to dt over N·dt)")
+    w.add_argument("--start", type=float, default=0.0, metavar="S",
+                   help="crop: drop what comes before S seconds after the first time stamp")
+    w.add_argument("--end", type=float, metavar="S", help="crop: drop what comes after S seconds after the first "
+                   "time stamp (default: keep to the end)")
+    w.add_argument("--align", choices=("start", "contact"), default="start",
+                   help="start: keep from --start; contact: from --pre-contact s before the force first exceeds "
+                   "--contact-force")
+    w.add_argument("--contact-force", type=float, default=1.0, metavar="N",
+                   help="force magnitude in N that marks contact onset, for --align contact")
+    w.add_argument("--pre-contact", type=float, default=0.1, metavar="S",
+                   help="seconds kept before contact onset, for --align contact (clipped at --start)")
+    w.add_argument("--crop-to-horizon", action="store_true", help="keep the first N·dt s of a longer recording "
+                   "(default: refuse it, naming its duration)")
+    m.add_argument("--dt", type=float, default=DEFAULT_DT, metavar="S", help="planner sample period in s")
+    m.add_argument("--horizon", type=int, default=DEFAULT_HORIZON, metavar="N", help="planner steps N")
+
+
+def add_recording_commands(sub: Any) -> None:
+    """The parsers of import-demos and export-demos (called by `judgeopt.cli.main.build_parser`)."""
+    m = sub.add_parser(
+        "import-demos", help="import recorded demonstrations (CSV, robomimic-style HDF5 or LeRobot v3) into the "
+        "dataset format",
+        description="CSV columns: t [s], y [m], optional ydot [m/s], f [N], label (success/failure), the environment "
+        "columns, optional demo_id (several demonstrations in one table). HDF5 (.h5/.hdf5, robomimic layout): "
+        "data/demo_N groups with t (or a dt/control_freq attribute), y, optional ydot, f as datasets in the group or "
+        "under obs/, a success attribute (or success/rewards/dones dataset) and the environment values as attributes "
+        "(or in env_args). LeRobot v3 (a folder with meta/info.json and data/chunk-*/file-*.parquet): one "
+        "demonstration per episode, columns chosen with --keys. Each demonstration is validated, cropped "
+        "(--start/--end, --align contact) and resampled to the planner's period; bad CSV files, HDF5 demo groups and "
+        "LeRobot episodes are reported (file, row/demo group/episode, column/field) and the rest imported.",
+        parents=[out_option("FILE", "HDF5 dataset to write", required=True), OVERWRITE])
+    m.add_argument("files", nargs="+", help="CSV or HDF5 files, LeRobot dataset folders, or folders of CSV/HDF5 files")
+    add_import_flags(m)
+    m.set_defaults(func=cmd_import_demos)
+
+    e = sub.add_parser(
+        "export-demos", help="write a dataset as one CSV table in the importer's format",
+        description="Columns demo_id, t [s], the channels (the scoop's y [m], ydot [m/s], f [N]), label "
+        "(success/failure) and the environment values, one row per sample; `judgeopt import-demos` reads it back "
+        "to the same dataset. The responses are written (an imported dataset holds its recordings as both commands "
+        "and responses).",
+        parents=[out_option("FILE", "CSV file to write", required=True), OVERWRITE])
+    e.add_argument("data", metavar="DATA.h5", help="dataset (HDF5) to export")
+    e.set_defaults(func=cmd_export_demos)
