@@ -43,7 +43,11 @@ def import_spec(args: argparse.Namespace, paths: list[Path]) -> Any:
     hdf5 = any(p.suffix.lower() in HDF5_SUFFIXES for p in paths)
     if args.filter_key and not hdf5:
         raise CLIError("--filter-key selects demo groups of HDF5 files (mask/NAME); no .h5/.hdf5 file is given")
-    if args.keys and not any(is_lerobot(p) for p in paths):
+    lerobot = any(is_lerobot(p) for p in paths)
+    if args.success_threshold is not None and not (hdf5 or lerobot):
+        raise CLIError("--success-threshold labels HDF5 rewards or LeRobot next.reward; a CSV file has its own "
+                       "label column")
+    if args.keys and not lerobot:
         raise CLIError("--keys maps LeRobot columns; no LeRobot dataset folder (with meta/info.json) is given "
                        "(HDF5 files: --hdf5-keys)")
     env_names = tuple(n for n in args.env_names.split(",") if n) if args.env_names else task.env_names

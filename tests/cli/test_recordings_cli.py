@@ -53,6 +53,7 @@ def test_export_then_import_from_the_command_line(tmp_path, capsys):
     (["--filter-key", "train"], "--filter-key selects demo groups of HDF5 files"),
     (["--keys", "y=observation.state:1"], "--keys maps LeRobot columns"),
     (["--start", "1", "--end", "0.5"], "--end 0.5 s must be after --start 1 s"),
+    (["--success-threshold", "0.5"], "--success-threshold labels HDF5 rewards or LeRobot next.reward"),
 ])
 def test_flags_that_cannot_apply_are_one_line_usage_errors(tmp_path, capsys, args, message):
     assert main(["import-demos", str(EXAMPLE_CSV), "--out", str(tmp_path / "d.h5"), *args]) == 2
