@@ -278,6 +278,9 @@ def build_parser() -> argparse.ArgumentParser:
     from judgeopt.cli.judge import add_ensemble_command
 
     add_ensemble_command(sub)
+    from judgeopt.cli.export import add_export_commands
+
+    add_export_commands(sub)
     return p
 
 

@@ -151,7 +151,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
             methods, fallback = ("direct",), ("no generator covers these limits: the direct solve runs alone, from "
                                               "its min-jerk guess (train one with `judgeopt train-generator`)")
     several = len(methods) > 1
-    targets = [_with_method(path, m, several) for path in (args.out, args.save_json) if path for m in methods]
+    targets = [_with_method(path, m, several) for path in (args.out, args.save_json, args.export) if path
+               for m in methods]
+    if args.export:  # its format from the suffix, checked before any solver runs
+        from judgeopt.cli.export import export_format
+
+        export_format(args.export)
     refuse_overwrite(targets + ([args.plot] if args.plot else []), args.overwrite)
     planners = Planners.load(problem, methods, judge=args.judge_model, generator=args.generator,
                              models_dir=args.models)
@@ -183,13 +188,20 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if r.plan is not None and args.out:
             from judgeopt.planners.export import write_csv
 
-            files.append(write_csv(r.plan, _with_method(args.out, r.method, several)))
+            files.append(write_csv(r.plan, _with_method(args.out, r.method, several), env=r.env))
         if r.plan is not None and args.save_json:
             from judgeopt.planners.export import plan_provenance, write_json
 
             prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"],
                                    planners.generator_path, command_line())
             files.append(write_json(r, problem, _with_method(args.save_json, r.method, several), prov))
+        if r.plan is not None and args.export:
+            from judgeopt.cli.export import export_record_to
+            from judgeopt.planners.export import plan_provenance, plan_record
+
+            rec = plan_record(r, problem, plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"],
+                                                          planners.generator_path, command_line()))
+            files.append(export_record_to(rec, _with_method(args.export, r.method, several)))
     if args.plot and any(r.plan is not None for r in results):
         from judgeopt.files import save_figure
         from judgeopt.planners.export import plot_plans
@@ -374,6 +386,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "
                    "provenance (models' sha256, git commit, command) as one JSON file (one per method: "
                    "NAME_METHOD.json); read back with judgeopt.planners.export.read_plan_json")
+    s.add_argument("--export", metavar="FILE", help="write the plan for a robot (one per method: NAME_METHOD.EXT): "
+                   ".csv with the importer's columns, or .mcap with ROS 2 messages along the problem's [frame] "
+                   "(pip install 'judgeopt[ros]'); as `judgeopt export` does from a --save-json file")
     s.add_argument("--plot", help="write q, q̇ and f against time with the allowed region (PNG)")
     s.add_argument("--json", action="store_true", help="print one JSON object")
     s.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")

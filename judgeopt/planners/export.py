@@ -27,8 +27,16 @@ also reads version 1, whose columns were always q, qdot, f):
                                 role} or null, judgeopt_version, git_commit, git_dirty (null
                                 outside a git checkout), command, created (UTC, ISO 8601),
                                 python, platform
+    frame                       the task frame (judgeopt.planners.frame: frame_id, origin,
+                                orientation, axes), defaults filled in; absent in files written
+                                before it, which `record_frame` reads as the task's default frame
 
 Non-finite numbers are written as null (strict JSON).
+
+Out to a robot (`export_record`, `judgeopt export`): CSV with the importer's columns
+(judgeopt.data.importer: t, each channel by name, then the environment the plan was made for;
+SI units s, m, m/s, N), so a recording of the executed plan in the same columns plus `label`
+re-imports unchanged; or MCAP with ROS 2 messages along the task frame (judgeopt.planners.ros).
 """
 
 from __future__ import annotations
@@ -48,6 +56,7 @@ import numpy as np
 from judgeopt.files import REPO, atomic_write
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
+from judgeopt.planners.frame import TaskFrame
 from judgeopt.trajectory import Plan, PlanError
 
 if TYPE_CHECKING:
@@ -64,13 +73,21 @@ class PlanFileError(PlanError):
     """A plan JSON file that is missing, corrupt, of another format or lacking fields."""
 
 
-def write_csv(plan: Plan, path: str | Path, step: float = 1e-3) -> Path:
+#: what `export_record` writes, by file suffix
+FORMATS = {".csv": "csv", ".mcap": "mcap"}
+
+
+def write_csv(plan: Plan, path: str | Path, step: float = 1e-3, env: dict[str, float] | None = None) -> Path:
     """Commands at `step` (1 ms): Hermite-interpolated position/velocity, linear force; the
-    same interpolation the simulated controller applies. Written atomically."""
+    same interpolation the simulated controller applies. Columns are the importer's (t, the
+    channels by name, SI units; then `env`'s values, constant), so a recording of the executed
+    plan with a `label` column added re-imports unchanged. Written atomically."""
     t, x = plan.resample(step)
-    header = ",".join(["t [s]"] + [f"{c.name} [{c.unit}]" for c in plan.channels])
+    env = env or {}
+    header = ",".join(["t", *(c.name for c in plan.channels), *env])
+    table = np.column_stack([t, x, np.tile([float(v) for v in env.values()], (len(t), 1))])
     buf = io.StringIO()
-    np.savetxt(buf, np.column_stack([t, x]), delimiter=",", fmt="%.9g", header=header, comments="")
+    np.savetxt(buf, table, delimiter=",", fmt="%.9g", header=header, comments="")
     atomic_write(path, buf.getvalue())
     return Path(path)
 
@@ -164,6 +181,7 @@ def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any]
                       **{n: [float(f"{v:.9g}") for v in fine[:, j]] for j, n in enumerate(names)}},
         "problem": problem.to_dict(),
         "provenance": prov,
+        "frame": problem.task_frame().to_dict(),
     }
     return _clean(record)
 
@@ -172,10 +190,12 @@ def write_json(result: PlanResult, problem: Problem, path: str | Path, provenanc
                step: float = 1e-3) -> Path:
     """One self-contained JSON file for a plan (fields: module docstring), written atomically
     (temporary file, then rename), so a controller polling the path never reads half a plan."""
-    from judgeopt.files import atomic_write
+    return write_record(plan_record(result, problem, provenance, step), path)
 
+
+def write_record(record: dict[str, Any], path: str | Path) -> Path:
+    """A `plan_record` as its JSON file, atomically."""
     path = Path(path)
-    record = plan_record(result, problem, provenance, step)
     # one top-level field per line: `head` shows method, outcome and residuals; arrays stay on one line
     text = "{\n" + ",\n".join(f" {json.dumps(k)}: {json.dumps(v, allow_nan=False)}" for k, v in record.items())
     atomic_write(path, (text + "\n}\n").encode())
@@ -230,7 +250,11 @@ def read_plan_record(path: str | Path) -> dict[str, Any]:
 def read_plan_json(path: str | Path) -> Plan:
     """The plan of a `write_json` file (at the planner's period), checked, ready to replay
     (`Simulator.run(plan, **env)`) or to resample for a controller (`Plan.resample`)."""
-    rec = read_plan_record(path)
+    return plan_from_record(read_plan_record(path), path)
+
+
+def plan_from_record(rec: dict[str, Any], path: str | Path) -> Plan:
+    """The plan of a record `read_plan_record` checked (`path`: named in every message)."""
     p = rec["plan"]
     dt = p["dt"]
     if not isinstance(dt, (int, float)) or isinstance(dt, bool):
@@ -249,6 +273,37 @@ def read_plan_json(path: str | Path) -> Plan:
         raise PlanFileError(f"{path}: field 'plan.t' ({len(t)} samples) is not k * dt for the "
                             f"{plan.horizon + 1} samples of the plan at dt = {plan.dt:g} s")
     return plan
+
+
+def record_frame(rec: dict[str, Any], path: str | Path) -> TaskFrame:
+    """The record's task frame, checked; the task's default frame for a file written before
+    plans recorded one."""
+    from judgeopt.planners.frame import FrameError, task_frame
+    from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
+
+    try:  # a record's frame was checked when planned: a failure here is an edited file
+        return task_frame(rec.get("frame"), get_task(rec["problem"].get("task", DEFAULT_TASK)))
+    except (FrameError, TaskError) as exc:
+        raise PlanFileError(f"{path}: field 'frame': {exc}") from None
+
+
+def export_record(rec: dict[str, Any], out: str | Path, fmt: str, step: float = 1e-3,
+                  path: str | Path = "plan", start_ns: int = 0) -> Path:
+    """A plan record out to a robot as `fmt` ("csv" or "mcap", `FORMATS`) at `step` (the
+    controller's 1 ms); `path` is where the record came from, for messages."""
+    if fmt not in FORMATS.values():
+        raise PlanError(f"export format {fmt!r} is not one of {', '.join(FORMATS.values())}")
+    plan = plan_from_record(rec, path)
+    if not (isinstance(step, (int, float)) and 0 < step <= plan.dt):
+        raise PlanError(f"export step {step!r} s must be positive and at most the plan's period {plan.dt:g} s")
+    if fmt == "csv":
+        return write_csv(plan, out, step, env=rec["environment"])
+    from judgeopt.planners.ros import write_mcap
+
+    info = {k: rec.get(k) for k in ("method", "environment", "predicted_success", "success_probability",
+                                    "probability_source", "verdict", "simulated_success", "provenance")}
+    info["problem"] = {k: rec["problem"].get(k) for k in ("name", "task", "source")}
+    return write_mcap(plan, record_frame(rec, path), out, info, step, start_ns)
 
 
 def measured(result: PlanResult) -> np.ndarray | None:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from judgeopt.planners.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
@@ -107,6 +108,8 @@ class Problem:
     # predicted success recalibrated on the planners' replayed outcomes (judgeopt calibrate);
     # used where the file has the planner's setting, ignored where it is missing
     calibration: str | None = "models/calibration_default.json"
+    # where the plan's axes lie for a robot ([frame]; judgeopt.planners.frame): not part of what is planned
+    frame: dict[str, Any] | None = None
     source: str = ""  # the file it came from (for messages and provenance)
 
     def __post_init__(self) -> None:
@@ -178,6 +181,14 @@ class Problem:
                     raise ProblemError(f"environment {k} = {list(v)}{where} must be [lo, hi] with lo <= hi")
             elif not math.isfinite(v):
                 raise ProblemError(f"environment {k} = {v!r}{where} must be a finite number")
+        self.task_frame()
+
+    def task_frame(self) -> TaskFrame:
+        """The checked task frame, defaults filled in (a bad one names the file and the field)."""
+        try:
+            return task_frame(self.frame, get_task(self.task))
+        except FrameError as exc:
+            raise ProblemError(f"{self.source or 'problem'}: {exc}") from None
 
     # -- per axis ---------------------------------------------------------------------
     def _vec(self, name: str, task=None) -> np.ndarray:
@@ -316,6 +327,7 @@ class Problem:
 
     def to_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
+        del d["frame"]  # where a plan goes, not what is planned: plan JSON records it (export.plan_record)
         d["environment"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.environment.items()}
         return d
 
@@ -368,10 +380,14 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [environment] must be a table")
             flat["environment"] = dict(value)  # a derived file replaces the whole environment
+        elif key == "frame":
+            if not isinstance(value, dict):
+                raise ProblemError(f"{path}: [frame] must be a table")
+            flat["frame"] = {**flat.get("frame", {}), **value}  # a derived file changes only the keys it gives
         elif key in ("name", "description", "task"):
             flat[key] = value
         else:
-            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, base, environment, "
+            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, base, environment, frame, "
                                f"{', '.join(f'[{s}]' for s in SECTIONS)}")
     return flat
 

@@ -208,7 +208,7 @@ def test_solve_json_schema_csv_and_plot(tmp_path, capsys):
         assert key in r
     assert r["simulated_success"] is None and len(r["t"]) == 31 and max(r["ydot"]) <= 0.4 + 1e-9
     rows = (tmp_path / "plan.csv").read_text().splitlines()
-    assert rows[0] == "t [s],y [m],ydot [m/s],f [N]" and len(rows) == 1 + 1501
+    assert rows[0] == "t,y,ydot,f,y_obj,mu" and len(rows) == 1 + 1501  # the importer's columns
     assert (tmp_path / "plan.png").stat().st_size > 10_000
 
 
