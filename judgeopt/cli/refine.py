@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 import csv
 import io
 from pathlib import Path
@@ -30,7 +31,18 @@ def cmd_refine(args: argparse.Namespace) -> int:
     generator = resolve(args.generator, (".json",)) if args.generator else None
     figures = refine(problem, resolve(args.train), resolve(args.judge_model or problem.judge, (".json",)), generator,
                      out, cfg, test_data=resolve(args.test) if args.test else None, n_jobs=args.jobs,
-                     scheduler=args.scheduler, progress=not args.quiet)
+                     scheduler=args.scheduler, progress=not args.quiet, plans_only=args.plans_only,
+                     outcomes=args.outcomes, on_error=lambda e: print(f"judgeopt refine: left out: {e}", file=sys.stderr))
+    if args.plans_only or args.outcomes:
+        from judgeopt.refine.robot import pending
+
+        waiting = pending(out)
+        if waiting is not None:
+            print(f"round {waiting.parent.parent.name.split('_')[1]}: plans to execute listed in {waiting}; record "
+                  "each as DIR/<id>.csv (the importer's columns and label), then run this command again with "
+                  "--outcomes DIR")
+        if not figures:
+            return 0
     md = markdown(figures)
     atomic_write(out / "refine.md", md.encode())
     buf = io.StringIO()
@@ -112,6 +124,14 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--install", metavar="NAME", help="copy round --rounds' models to models/judge_NAME (and "
                    "generator_NAME)")
     r.add_argument("--quiet", action="store_true")
+    robot = r.add_argument_group("with a robot", "run the rounds on a robot instead of the simulator "
+                                 "(docs/remedies.md): the same environments, limits, models and training")
+    robot.add_argument("--plans-only", action="store_true", help="write the next round's plans for execution "
+                       "(OUT/round_K/plans/: plan JSON and 1 kHz CSV per plan id, manifest.json with environment and "
+                       "limits) and stop instead of replaying them")
+    robot.add_argument("--outcomes", metavar="DIR", help="the labelled executions of the written round's plans "
+                       "(DIR/<id>.csv in the importer's format with label): finish that round with them, then "
+                       "write the next round's plans")
     g = r.add_argument_group("limit sampling", "plan each environment under its own q̇_max, f_min, f_max drawn "
                              "from ranges (uniform), so the judge learns which limits make the task impossible; "
                              "the generator (with --generator-epochs) becomes a conditioned one over these ranges")

@@ -14,6 +14,9 @@ Layout of OUT (every file written atomically; a rerun resumes where it stopped):
     round_1/judge.{pt,json}  the judge fine-tuned after round 1
     round_1/generator.*      the generator fine-tuned against it (when generator_epochs > 0)
     round_1/summary.json     round 1 finished (its figures)
+    round_1/plans/           with a robot instead of the simulator (--plans-only, then --outcomes
+                             DIR): round 1's plans for execution and their manifest
+                             (judgeopt.refine.robot); outcomes.h5 then holds the recordings
     refine.md / .csv / .png  success per round
 
 Nothing under models/ is touched; `install` copies the last round's models there, on request.
@@ -24,7 +27,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable, Iterator
 
 import numpy as np
 
@@ -62,29 +65,49 @@ class RefineConfig:
                                "(a generator is only as good as the judge it was trained against)")
 
 
-def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None,
-                envs: np.ndarray, first: int, limits: np.ndarray | None = None) -> list[dict[str, Any]]:
-    """Plan, replay, and keep what the dataset needs: the command, the measured response, the
-    label; `limits`: (n, 3) q̇_max, f_min, f_max per environment (None: the problem's)."""
+def _solved(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None, envs: np.ndarray,
+            limits: np.ndarray | None) -> Iterator[tuple[int, dict[str, float], dict[str, float], Any]]:
+    """(i, environment, limits, PlanResult) for each planned environment and method;
+    `limits`: (n, 3) q̇_max, f_min, f_max per environment (None: the problem's)."""
     import torch
 
-    from judgeopt.evaluate.batch import planners as load_planners, simulator
+    from judgeopt.evaluate.batch import planners as load_planners
 
     torch.set_num_threads(1)
-    planners, sim = load_planners(problem, methods, judge, generator=generator), simulator(problem.task)
-    rows = []
+    planners = load_planners(problem, methods, judge, generator=generator)
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
         lim = {} if limits is None else dict(zip(CONDITION_NAMES, map(float, limits[i])))
         for r in (planners.with_limits(**lim) if lim else planners).solve(env):
-            if r.plan is None:  # limits infeasible for this environment: nothing to replay
-                continue
-            out = sim.simulate(r.plan, env)
-            rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
-                         "limits": lim, "command": r.plan.as_array().tolist(), "response": out.response.tolist(),
-                         "success": bool(out.success), "predicted": r.predicted_success,
-                         "violation": r.max_constraint_violation})
+            if r.plan is not None:  # None: limits infeasible for this environment, nothing to run
+                yield i, env, lim, r
+
+
+def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None,
+                envs: np.ndarray, first: int, limits: np.ndarray | None = None) -> list[dict[str, Any]]:
+    """Plan, replay, and keep what the dataset needs: the command, the measured response, the
+    label."""
+    from judgeopt.evaluate.batch import simulator
+
+    sim = simulator(problem.task)
+    rows = []
+    for i, env, lim, r in _solved(problem, methods, judge, generator, envs, limits):
+        out = sim.simulate(r.plan, env)
+        rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
+                     "limits": lim, "command": r.plan.as_array().tolist(), "response": out.response.tolist(),
+                     "success": bool(out.success), "predicted": r.predicted_success,
+                     "violation": r.max_constraint_violation})
     return rows
+
+
+def _record_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None, envs: np.ndarray,
+                  first: int, limits: np.ndarray | None, provenance: dict[str, Any]) -> list[dict[str, Any]]:
+    """Plan without replaying: each plan's JSON record (under its own limits), for a robot."""
+    from judgeopt.planners.export import plan_record
+
+    return [{"env_index": first + i, "method": r.method, "limits": lim,
+             "record": plan_record(r, problem.with_overrides(**lim), provenance)}
+            for i, env, lim, r in _solved(problem, methods, judge, generator, envs, limits)]
 
 
 def _round_envs(problem: Problem, seed: int, k: int, n: int) -> np.ndarray:
@@ -119,13 +142,34 @@ def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generat
     return sorted(done, key=lambda r: (r["env_index"], r["method"]))
 
 
-def _outcomes(rows: list[dict], problem: Problem, k: int):
+def _write_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generator: str | None, folder: Path,
+                 n_jobs: int, scheduler: str | None, progress: bool) -> Path:
+    """Round k's plans for a robot (judgeopt.refine.robot): the same environments and limits the
+    simulator path would plan for, planned by the same models, written instead of replayed."""
+    from judgeopt.planners.export import plan_provenance
+    from judgeopt.refine.robot import write_plans
+
+    envs, limits = _round_envs(problem, cfg.seed, k, cfg.n), _round_limits(cfg, k)
+    from judgeopt.files import sha256_file
+    from judgeopt.judge.store import model_paths
+
+    prov = plan_provenance(judge, sha256_file(model_paths(judge)[0]), generator, f"judgeopt refine round {k}")
+    work = [(f, _record_chunk, (problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
+                                None if limits is None else limits[f:f + cfg.chunk], prov))
+            for f in range(0, cfg.n, cfg.chunk)]
+    done = run_chunks(work, lambda key, rows: None, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
+                      desc=f"round {k}: plan for the robot")
+    rows = sorted((r for rows in done.values() for r in rows), key=lambda r: (r["env_index"], r["method"]))
+    return write_plans(folder / "plans", rows, k, problem, {"judge": judge, "generator": generator})
+
+
+def _outcomes(rows: list[dict], problem: Problem, k: int, where: str = "in simulation"):
     from judgeopt.data.dataset import Dataset
 
     return Dataset(np.array([r["command"] for r in rows]), np.array([r["response"] for r in rows]),
                    np.array([int(r["success"]) for r in rows]), np.array([r["env"] for r in rows]), problem.dt,
                    problem.env_names, np.array([r["env_index"] for r in rows]),
-                   meta={"source": f"judgeopt refine round {k}: planners' outcomes in simulation"}, task=problem.task,
+                   meta={"source": f"judgeopt refine round {k}: planners' outcomes {where}"}, task=problem.task,
                    channels=problem.channels, units={c.name: c.unit for c in problem.channel_spec})
 
 
@@ -149,8 +193,17 @@ def _round_figures(rows: list[dict], k: int) -> list[dict]:
 
 def refine(problem: Problem, train_data: str | Path, judge: str | Path, generator: str | Path | None,
            out: str | Path, cfg: RefineConfig, test_data: str | Path | None = None, n_jobs: int = -1,
-           scheduler: str | None = None, progress: bool = True) -> list[dict]:
-    """Run (or resume) the rounds; returns one figure row per round and method."""
+           scheduler: str | None = None, progress: bool = True, plans_only: bool = False,
+           outcomes: str | Path | None = None, on_error: Callable[[str], None] | None = None) -> list[dict]:
+    """Run (or resume) the rounds; returns one figure row per round and method.
+
+    With a robot instead of the simulator (judgeopt.refine.robot): `plans_only` writes the first
+    unfinished round's plans to OUT/round_k/plans/ and stops there; `outcomes` (a folder of the
+    labelled executions of those plans) finishes that round with them instead of replaying, then
+    writes the next round's plans and stops. `on_error` hears of each recording left out."""
+    from judgeopt.planners.problem import ProblemError
+    from judgeopt.refine.robot import MANIFEST, read_outcomes
+
     from judgeopt.data.dataset import concatenate, load, save
     from judgeopt.judge.evaluate import evaluate_judge
     from judgeopt.files import sha256_file
@@ -174,10 +227,30 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
             figures += [{**now.get(f["method"], {}), **f} for f in summary["figures"]]
             judge, generator = summary["judge"], summary["generator"]
             continue
-        rows = _plan_round(problem, cfg, k, judge, generator, folder, n_jobs, scheduler, progress)
-        outcomes = _outcomes(rows, problem, k)
-        save(outcomes, folder / "outcomes.h5")
-        aggregated.append(outcomes)
+        manifest = folder / "plans" / MANIFEST
+        skipped: list[str] = []
+        if plans_only or outcomes is not None:  # a robot runs the plans
+            if not manifest.exists():
+                if outcomes is not None:
+                    raise ProblemError(f"{outcomes}: round {k} has no plans written to execute ({manifest} is "
+                                       "missing): write them with --plans-only first")
+                _write_round(problem, cfg, k, judge, generator, folder, n_jobs, scheduler, progress)
+                return figures
+            if outcomes is None:  # written earlier, not executed yet
+                return figures
+            rows, skipped = read_outcomes(manifest, outcomes, problem)
+            for e in skipped:
+                (on_error or (lambda m: None))(e)
+            outcomes, plans_only = None, True  # these recordings are this round's; the next one's plans wait
+            done = _outcomes(rows, problem, k, "executed on the robot")
+        else:
+            if manifest.exists():
+                raise ProblemError(f"{out}: round {k}'s plans were written for a robot ({manifest}): finish the round "
+                                   "with --outcomes DIR, or refine into another --out")
+            rows = _plan_round(problem, cfg, k, judge, generator, folder, n_jobs, scheduler, progress)
+            done = _outcomes(rows, problem, k)
+        save(done, folder / "outcomes.h5")
+        aggregated.append(done)
         figs = _round_figures(rows, k)
         # fine-tune the judge on the demonstrations plus every round's outcomes so far
         data = concatenate([base] + [a for a in aggregated for _ in range(cfg.weight)])
@@ -200,7 +273,8 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
             generator = str(_fine_tune_generator(problem, judge, generator, folder / "generator", cfg, k, progress))
         for f in figs:
             f.update({f"judge_after_{m}": v for m, v in metrics.items()})
-        summary = {"round": k, "figures": figs, "judge": judge, "generator": generator}
+        summary = {"round": k, "figures": figs, "judge": judge, "generator": generator,
+                   **({"outcomes_left_out": skipped} if skipped else {})}
         atomic_write(summary_path, json.dumps(summary, indent=2).encode())
         figures += figs
     return figures
