@@ -19,8 +19,8 @@ bench: setup
 # remake the paper's shipped generators, against the judge trained on demonstrations only (about 7 min each
 # on one core); the refined judge's generators are fine-tuned from these (docs/remedies.md, docs/planners.md)
 generators: setup
-	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --judge-model models/judge_default --out models/generator_paper_sim --overwrite
-	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --judge-model models/judge_default --out models/generator_paper_sim_slow --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --judge models/judge_default --out models/generator_paper_sim --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --judge models/judge_default --out models/generator_paper_sim_slow --overwrite
 
 # remake the shipped datasets (about 18 min on 2 cores; resumable)
 data: setup

@@ -82,7 +82,7 @@ def main() -> None:
     ap.add_argument("--chunk", type=int, default=10, help="environments per parallel task")
     ap.add_argument("--problem", default="problems/paper_sim.toml")
     ap.add_argument("--qdot-max", type=float, nargs="+", default=[0.3, 0.4, 0.5, 0.7, 0.9, 1.0])
-    ap.add_argument("--judge-model", help="the judge that scores the plans (default: the problem's); pass the one "
+    ap.add_argument("--judge", dest="judge_model", help="the judge that scores the plans (default: the problem's); pass the one "
                     "the generators were trained against")
     ap.add_argument("--conditioned", default="models/generator_conditioned")
     ap.add_argument("--per-limit", nargs="*", default=["models/generator_paper_sim", "models/generator_paper_sim_slow"],

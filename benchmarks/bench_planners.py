@@ -42,7 +42,7 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=2024)
     ap.add_argument("--jobs", type=int, default=-1)
     ap.add_argument("--problems", nargs="+", default=["problems/paper_sim.toml", "problems/paper_sim_slow.toml"])
-    ap.add_argument("--judge-model", help="the judge to plan against (default: each problem's)")
+    ap.add_argument("--judge", dest="judge_model", help="the judge to plan against (default: each problem's)")
     ap.add_argument("--json", help="also write the summary as JSON here")
     args = ap.parse_args()
 

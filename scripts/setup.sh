@@ -1,23 +1,24 @@
 #!/usr/bin/env bash
 # Create .venv and install judgeopt with everything it needs, in the one order that works:
 # torch (CPU wheel) first, then the build tools, then l4casadi built against that torch
-# (see shared/notes/dependencies.md), then the package itself. Idempotent: a second run
+# (see shared/notes/dependencies.md), then the package itself, every package at the version CI
+# tests (scripts/constraints.txt; pyproject.toml has the ranges). Idempotent: a second run
 # only checks a stamp and returns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${JUDGEOPT_VENV:-.venv}
 PY=${PYTHON:-python3.11}
 command -v "$PY" >/dev/null 2>&1 || PY=python3
-stamp="$VENV/.judgeopt-setup-$(cat pyproject.toml scripts/setup.sh | sha1sum | cut -c1-12)"
+stamp="$VENV/.judgeopt-setup-$(cat pyproject.toml scripts/setup.sh scripts/constraints.txt | sha1sum | cut -c1-12)"
 if [ -f "$stamp" ]; then exit 0; fi
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
 pip() { "$VENV/bin/python" -m pip "$@"; }
 pip install -q --upgrade pip
 pip install -q torch==2.13.0
-pip install -q "casadi>=3.6" scikit-build cmake ninja setuptools wheel
+pip install -q -c scripts/constraints.txt casadi scikit-build cmake ninja setuptools wheel
 if ! "$VENV/bin/python" -c "import l4casadi" 2>/dev/null; then
   CMAKE_POLICY_VERSION_MINIMUM=3.5 pip install -q --no-build-isolation l4casadi==2.0.0
 fi
-pip install -q --no-build-isolation -e ".[test]"
+pip install -q --no-build-isolation -c scripts/constraints.txt -e ".[test]"
 rm -f "$VENV"/.judgeopt-setup-*
 touch "$stamp"

@@ -1,14 +1,150 @@
-"""What every subcommand shares: the one-line error, argument types, the command line as typed."""
+"""What every subcommand shares: exit codes, the one-line error, the help format, the options
+every command spells the same way (parent parsers), argument types, the command line as typed."""
 
 from __future__ import annotations
 
 import argparse
+import json
 import shlex
 import sys
+from enum import IntEnum
+
+
+class ExitCode(IntEnum):
+    """What `judgeopt` returns (README, "Exit codes"; `judgeopt --help`)."""
+
+    OK = 0
+    INTERNAL = 1
+    USAGE = 2
+    INFEASIBLE = 3
+    UNLIKELY = 4
+    BAD_INPUT = 5
+    EXISTS = 6
+    MISSING = 7
+    INTERRUPTED = 130
+
+
+EXIT_MEANINGS = {
+    ExitCode.OK: "done",
+    ExitCode.INTERNAL: "a bug in judgeopt: the traceback is printed, please report it",
+    ExitCode.USAGE: "a bad option, value or combination of options",
+    ExitCode.INFEASIBLE: "the limits admit no plan at all (found before any solver runs)",
+    ExitCode.UNLIKELY: "plans were made, but no method's plan is likely to succeed",
+    ExitCode.BAD_INPUT: "a file (dataset, model, problem, plan, recording) that cannot be read or used",
+    ExitCode.EXISTS: "an output exists and --overwrite was not given",
+    ExitCode.MISSING: "an optional dependency is not installed, or the judge library could not be built",
+    ExitCode.INTERRUPTED: "Ctrl-C or SIGTERM: workers stopped; a collection resumes when rerun",
+}
 
 
 class CLIError(Exception):
-    """A user-facing error: printed as one line, exit code 2."""
+    """A user-facing error: printed as one line (exit code 2 unless given)."""
+
+    def __init__(self, message: str, code: ExitCode = ExitCode.USAGE):
+        super().__init__(message)
+        self.code = code
+
+
+#: optional modules and the extra that installs them (pyproject.toml [project.optional-dependencies])
+EXTRAS = {"pybullet": "sim", "pybullet_data": "sim", "pinocchio": "sim", "example_robot_data": "sim", "PIL": "sim",
+          "dask": "dask", "distributed": "dask", "pyarrow": "lerobot", "rosbags": "ros", "l4casadi": "l4casadi"}
+
+
+def missing_extra(exc: ModuleNotFoundError) -> str | None:
+    """The one-line fix for a missing optional dependency, or None if it is not one of ours."""
+    root = (exc.name or "").split(".")[0]
+    extra = EXTRAS.get(root)
+    if extra is None:
+        return None
+    return f"this needs {root}, which is not installed: pip install 'judgeopt[{extra}]'"
+
+
+def wants_json(argv: list[str] | None = None) -> bool:
+    """Was --json given? (errors are then one JSON object on stdout, usage errors included)."""
+    return "--json" in (argv if argv is not None else (_ARGV if _ARGV is not None else sys.argv[1:]))
+
+
+def print_error(command: str, message: str, code: int) -> None:
+    """The one error line: on stderr, or under --json one object on stdout."""
+    if wants_json():
+        print(json.dumps({"error": message, "exit_code": int(code), "command": command}))
+    else:
+        print(f"{command}: error: {message}", file=sys.stderr)
+
+
+class HelpFormatter(argparse.HelpFormatter):
+    """Every option's help ends with its default, unless it says it already or has none."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        if (not action.option_strings or "default" in text.lower() or action.default is None
+                or action.default is False or action.default == [] or action.default is argparse.SUPPRESS):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+class ListingHelpFormatter(argparse.RawDescriptionHelpFormatter, HelpFormatter):
+    """The same, with the description and epilog kept as written (a list of exit codes)."""
+
+
+class Parser(argparse.ArgumentParser):
+    """judgeopt's parser: its help format for every subcommand, usage errors as JSON under --json."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", HelpFormatter)
+        super().__init__(*args, **kwargs)
+
+    def error(self, message: str):
+        if wants_json():
+            print_error(self.prog, message, ExitCode.USAGE)
+            sys.exit(ExitCode.USAGE)
+        super().error(message)
+
+
+def _parent() -> argparse.ArgumentParser:
+    return argparse.ArgumentParser(add_help=False)
+
+
+def out_option(kind: str, what: str, required: bool = False, default: str | None = None) -> argparse.ArgumentParser:
+    """--out, named for what it is: FILE, DIR (a folder) or STEM (a model path without suffix)."""
+    p = _parent()
+    p.add_argument("--out", metavar=kind, required=required, default=default, help=what)
+    return p
+
+
+def jobs_option(default: int = -1) -> argparse.ArgumentParser:
+    """--jobs: worker processes (never threads) and --scheduler: a Dask cluster instead."""
+    p = _parent()
+    p.add_argument("--jobs", type=int, default=default, metavar="N", help="local worker processes (-1: all cores)")
+    p.add_argument("--scheduler", metavar="ADDRESS",
+                   help="a Dask distributed scheduler (tcp://host:8786) to run on instead of local processes "
+                   "(needs judgeopt[dask])")
+    return p
+
+
+def threads_option(default: int | None = None) -> argparse.ArgumentParser:
+    """--threads: torch threads in this process (1 is bit-reproducible)."""
+    p = _parent()
+    p.add_argument("--threads", type=positive, default=default, metavar="N",
+                   help="torch threads (1: bit-reproducible" + ("; default: all cores)" if default is None else ")"))
+    return p
+
+
+def seed_option(default: int = 0) -> argparse.ArgumentParser:
+    p = _parent()
+    p.add_argument("--seed", type=int, default=default, help="random seed: the same seed gives the same result")
+    return p
+
+
+def _flag(name: str, text: str) -> argparse.ArgumentParser:
+    p = _parent()
+    p.add_argument(name, action="store_true", help=text)
+    return p
+
+
+OVERWRITE = _flag("--overwrite", "replace outputs that exist (without it, an existing output is refused, exit 6)")
+JSON = _flag("--json", "print one JSON object on stdout (errors too: {\"error\": ..., \"exit_code\": ...})")
+QUIET = _flag("--quiet", "no progress bars or progress messages")
 
 
 _ARGV: list[str] | None = None  # the arguments `main` was called with (in-process calls: tests, notebooks)
@@ -55,6 +191,14 @@ def env_range(text: str) -> tuple[str, tuple[float, float]]:
     if not sep or not name:
         raise argparse.ArgumentTypeError(f"expected NAME=LO,HI, got {text!r}")
     return name.strip(), value_range(values)
+
+
+def env_assignment(text: str) -> tuple[str, str]:
+    """NAME=X or NAME=LO,HI (the value is checked by the problem, which knows the variable)."""
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip() or not value.strip():
+        raise argparse.ArgumentTypeError(f"expected NAME=X or NAME=LO,HI, e.g. mu=2, got {text!r}")
+    return name.strip(), value.strip()
 
 
 def names(text: str) -> tuple[str, ...]:

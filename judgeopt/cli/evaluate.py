@@ -7,7 +7,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from judgeopt.cli.common import env_range
+from judgeopt.cli.common import QUIET, env_range, jobs_option, out_option, positive, seed_option
 
 def _table_names() -> list[str]:
     """`planners`, `sweep` and every task's own tables (the scoop's table4, table5, compare)."""
@@ -54,8 +54,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         if not rows:
             raise ProblemError(f"--rows {args.rows}: no such rows in {args.table} (names: "
                                f"{[r.name for r in table.rows()]})")
-    if args.judge_model:  # the same table against another judge (e.g. a refined one)
-        rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge_model).name}", judge=args.judge_model)
+    if args.judge:  # the same table against another judge (e.g. a refined one)
+        rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge).name}", judge=args.judge)
                 if r.judge else r for r in rows]
     out = Path(args.out or f"out/evaluate/{args.table}")
     calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
@@ -154,7 +154,7 @@ def _calibrators(problem, path: str | None) -> dict:
 def _argv(args: argparse.Namespace) -> list[str]:
     extra = (["--problem", args.problem] if args.problem else []) + (["--methods", *args.methods] if args.methods else [])
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
-        ["--judge-model", args.judge_model] if args.judge_model else [])
+        ["--judge", args.judge] if args.judge else [])
     extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--vary", f"{args.vary[0]}={args.vary[1][0]:g},{args.vary[1][1]:g}"] if args.vary else [])
     extra += (["--random-limits", str(args.random_limits)] if args.random_limits else []) + (
         [] if args.baselines else ["--no-baselines"])
@@ -219,7 +219,9 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
                        "seeded environments per row (rows with the same ranges share them). Parallel processes "
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
-                       "interrupted run resumes.")
+                       "interrupted run resumes.",
+                       parents=[out_option("DIR", "output folder, default out/evaluate/TABLE (an unfinished one "
+                                           "resumes)"), seed_option(), jobs_option(), QUIET])
     e.add_argument("table", choices=_table_names(),
                    help="planners: both planners, the CEM and the no-judge baseline (any task); sweep: held-out limit "
                    "sets, with the no-judge baseline and a feasibility search in simulation; the scoop's table4, "
@@ -233,22 +235,18 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"), WIDE_LIMITS)
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")
-    e.add_argument("--n", type=int, default=100, help="environments per row")
-    e.add_argument("--seed", type=int, default=0)
-    e.add_argument("--problem", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
+    e.add_argument("--n", type=positive, default=100, help="environments per row")
+    e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
     e.add_argument("--methods", nargs="+", choices=("amortized", "direct", "cem"),
                    help="planners to include (default all of the table's)")
     e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
-    e.add_argument("--judge-model", help="run every planner row against this judge instead (rows renamed)")
-    e.add_argument("--calibration", help="calibration file for the calibrated predictions (default: the problem's "
+    e.add_argument("--judge", metavar="STEM", help="run every planner row against this judge instead (rows renamed)")
+    e.add_argument("--judge-model", dest="judge", help=argparse.SUPPRESS)  # the name older scripts use
+    e.add_argument("--calibration", metavar="FILE", help="calibration file for the calibrated predictions (default: the problem's "
                    "[models] calibration, where it exists)")
-    e.add_argument("--out", help="output folder (default out/evaluate/TABLE)")
-    e.add_argument("--models", default="models", help="folder searched for generators")
-    e.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")
-    e.add_argument("--scheduler", help="address of a Dask distributed scheduler to run on")
-    e.add_argument("--chunk", type=int, default=10, help="environments per work unit (and per resume step)")
-    e.add_argument("--quiet", action="store_true")
+    e.add_argument("--models", default="models", metavar="DIR", help="folder searched for generators")
+    e.add_argument("--chunk", type=positive, default=10, help="environments per work unit (and per resume step)")
     e.set_defaults(func=cmd_evaluate)
 
     c = sub.add_parser("calibrate", help="fit calibrated success predictions from evaluated (replayed) plans",
@@ -256,10 +254,10 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "replayed outcomes in the given `judgeopt evaluate` folders, fit a logistic map from the "
                        "judge's logit and the environment to the simulated success; planners then report it as "
                        "calibrated_success. Evaluate on another --seed to test it.")
-    c.add_argument("folders", nargs="+", help="evaluation output folders (with partial/*.json)")
-    c.add_argument("--out", default="out/calibration.json", help="calibration file: its other settings are kept "
-                   "unless --replace (the shipped one is models/calibration_default.json)")
-    c.add_argument("--min-n", type=int, default=50, help="fewest outcomes a setting needs")
+    c.add_argument("folders", nargs="+", metavar="DIR", help="evaluation output folders (with partial/*.json)")
+    c.add_argument("--out", default="out/calibration.json", metavar="FILE", help="calibration file: its other settings "
+                   "are kept unless --replace (the shipped one is models/calibration_default.json)")
+    c.add_argument("--min-n", type=positive, default=50, help="fewest outcomes a setting needs")
     c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "
                    "limits in the folders (a sweep's), with q̇ and force limits as inputs beside the environment: it "

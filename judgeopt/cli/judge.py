@@ -13,7 +13,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.common import CLIError, command_line, names, positive
+from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, names, out_option, positive,
+                                 seed_option, threads_option)
 from judgeopt.files import refuse_overwrite
 
 from judgeopt.tasks import DEFAULT_TASK, get_task
@@ -44,12 +45,12 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     if out.suffix in (".pt", ".json"):
         out = out.with_suffix("")
     refuse_overwrite(model_paths(out), args.overwrite)
-    torch.set_num_threads(args.jobs or os.cpu_count() or 1)
+    torch.set_num_threads(args.threads or os.cpu_count() or 1)
     parts = [load(p) for p in args.train]
     try:
         train_ds = concatenate(parts) if len(parts) > 1 else parts[0]
     except DatasetError as exc:
-        raise CLIError(f"--train {' '.join(args.train)}: {exc}") from None
+        raise CLIError(f"--train {' '.join(args.train)}: {exc}", ExitCode.BAD_INPUT) from None
     test_ds = load(args.test) if args.test else None
     env_names = args.env_names or tuple(train_ds.env_names)
     missing = [n for n in env_names if n not in train_ds.env_names]
@@ -65,7 +66,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
                          channels=train_ds.channels, units=train_ds.units or dict(JudgeConfig().units))
     tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
                      input_noise=args.input_noise,
-                     invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.jobs,
+                     invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.threads,
                      progress=not args.quiet)
     model, result = train_judge(train_ds, test_ds, config, tc)
     metrics: dict[str, Any] = {"best_epoch": result.best_epoch, "val_accuracy": result.best["val_accuracy"],
@@ -115,10 +116,10 @@ def cmd_test_judge(args: argparse.Namespace) -> int:
     from judgeopt.judge.evaluate import evaluate_judge, format_metrics
     from judgeopt.judge.store import load_judge
 
-    if args.jobs:
+    if args.threads:
         import torch
-        torch.set_num_threads(args.jobs)
-    model_path = resolve_model(args.model)
+        torch.set_num_threads(args.threads)
+    model_path = resolve_model(args.judge)
     model, meta = load_judge(model_path)
     ds = load(args.data)
     t0 = time.perf_counter()
@@ -220,35 +221,33 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
         "train-judge", help="train the success judge NN_judge on a demonstration file",
         description="LSTM success judge (paper Fig. 2, Table 2) trained with Adam on the responses; the epoch "
         "with the best accuracy on a validation split of --train is kept, --test is only reported. Writes "
-        "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.")
-    t.add_argument("--train", required=True, nargs="+", help="training dataset(s) (HDF5; several are concatenated)")
-    t.add_argument("--test", help="held-out test dataset (HDF5), reported every epoch")
-    t.add_argument("--out", required=True, help="model path without suffix, e.g. out/my_judge")
-    t.add_argument("--overwrite", action="store_true", help="replace the model at --out if it exists")
-    t.add_argument("--epochs", type=positive, default=TrainConfig.epochs)
-    t.add_argument("--batch-size", type=positive, default=TrainConfig.batch_size)
+        "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.",
+        parents=[out_option("STEM", "model path without suffix, e.g. out/my_judge", required=True), OVERWRITE,
+                 seed_option(), threads_option(), QUIET])
+    t.add_argument("--train", required=True, nargs="+", metavar="FILE",
+                   help="training dataset(s) (HDF5; several are concatenated)")
+    t.add_argument("--test", metavar="FILE", help="held-out test dataset (HDF5), reported every epoch")
+    t.add_argument("--epochs", type=positive, default=TrainConfig.epochs, help="passes over --train")
+    t.add_argument("--batch-size", type=positive, default=TrainConfig.batch_size, help="demonstrations per step")
     t.add_argument("--lr", type=float, default=TrainConfig.lr, help="peak learning rate (cosine-annealed)")
     t.add_argument("--input-noise", type=float, default=TrainConfig.input_noise,
                    help="training input noise, in normalisation std units")
-    t.add_argument("--seed", type=int, default=0)
     t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
     t.add_argument("--env-names", type=names, help="environment variables the judge sees (default: all in --train)")
     t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
-    t.add_argument("--lstm-units", type=positive, default=100)
-    t.add_argument("--fc-units", type=positive, default=102)
+    t.add_argument("--lstm-units", type=positive, default=100, help="units of each of the two LSTM layers")
+    t.add_argument("--fc-units", type=positive, default=102, help="units of the feed-forward layers")
     t.add_argument("--dropout", type=float, default=0.3, help="dropout of the feed-forward layers")
     t.add_argument("--lstm-dropout", type=float, default=0.3, help="dropout between the LSTM layers")
-    t.add_argument("--jobs", type=positive, help="torch threads (default: all cores)")
-    t.add_argument("--quiet", action="store_true", help="no progress bar")
     t.set_defaults(func=cmd_train_judge)
 
     e = subparsers.add_parser(
         "test-judge", help="score a trained judge on a dataset",
-        description="Accuracy, precision, recall, expected calibration error (10 bins) and the confusion matrix.")
-    e.add_argument("--model", default=DEFAULT_MODEL, help=f"model path without suffix (default {DEFAULT_MODEL})")
-    e.add_argument("--data", required=True, help="dataset (HDF5)")
-    e.add_argument("--json", action="store_true", help="print one JSON object")
-    e.add_argument("--jobs", type=positive, help="torch threads")
+        description="Accuracy, precision, recall, expected calibration error (10 bins) and the confusion matrix.",
+        parents=[JSON, threads_option()])
+    e.add_argument("--judge", default=DEFAULT_MODEL, metavar="STEM", help="judge model path without suffix")
+    e.add_argument("--model", dest="judge", help=argparse.SUPPRESS)  # the name older scripts use
+    e.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
     e.set_defaults(func=cmd_test_judge)
 
 
@@ -259,7 +258,7 @@ def cmd_train_ensemble(args) -> int:
     refuse_overwrite([Path(args.out) / "ensemble.json"], args.overwrite)  # unfinished members resume
     cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap)
     out = train_ensemble(resolve(args.train), resolve(args.test) if args.test else None, args.out, cfg,
-                         threads=args.jobs, progress=not args.quiet)
+                         threads=args.threads, progress=not args.quiet)
     meta = json.loads((out / "ensemble.json").read_text())
     accs = [m["metrics"].get("test_accuracy") for m in meta["members"]]
     print(f"wrote {out}/ensemble.json ({cfg.k} members; held-out accuracy per member: "
@@ -270,15 +269,13 @@ def cmd_train_ensemble(args) -> int:
 def add_ensemble_command(sub) -> None:
     e = sub.add_parser("train-ensemble", help="train K judges (seeds, bootstrap samples) for pessimistic planning "
                        "([models] ensemble, [solver] pessimism)",
-                       description="Resumable: finished members are kept; rerun to complete an interrupted run.")
-    e.add_argument("--train", default="data/train.h5")
-    e.add_argument("--test", default="data/test.h5")
-    e.add_argument("--k", type=int, default=5)
-    e.add_argument("--epochs", type=int, default=20)
-    e.add_argument("--seed", type=int, default=0)
+                       description="Resumable: finished members are kept; rerun to complete an interrupted run.",
+                       parents=[out_option("DIR", "folder (the shipped one is models/judge_ensemble)",
+                                           default="out/judge_ensemble"), OVERWRITE, seed_option(), threads_option(1),
+                                QUIET])
+    e.add_argument("--train", default="data/train.h5", metavar="FILE", help="training demonstrations (HDF5)")
+    e.add_argument("--test", default="data/test.h5", metavar="FILE", help="held-out demonstrations (HDF5)")
+    e.add_argument("--k", type=positive, default=5, help="members")
+    e.add_argument("--epochs", type=positive, default=20, help="epochs per member")
     e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
-    e.add_argument("--jobs", type=int, default=1, help="torch threads")
-    e.add_argument("--out", default="out/judge_ensemble", help="folder (the shipped one is models/judge_ensemble)")
-    e.add_argument("--overwrite", action="store_true", help="replace a finished ensemble at --out")
-    e.add_argument("--quiet", action="store_true")
     e.set_defaults(func=cmd_train_ensemble)

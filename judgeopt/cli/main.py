@@ -4,16 +4,18 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import sys
 from pathlib import Path
 
 import numpy as np
 
 from judgeopt import __version__
-from judgeopt.cli.common import CLIError, check_range, command_line, env_range, env_values, set_argv
+from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
+                                 check_range, command_line, env_range, env_values, jobs_option, missing_extra,
+                                 out_option, positive, print_error, seed_option, set_argv, wants_json)
 from judgeopt.files import refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
-from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
 
 # -- collect ---------------------------------------------------------------------------
@@ -80,34 +82,6 @@ def cmd_tasks(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_inspect(args: argparse.Namespace) -> int:
-    from judgeopt.data.dataset import load
-    from judgeopt.cli.judge import format_model_info, inspect_model, is_model_path
-
-    if is_model_path(args.path):
-        info = inspect_model(args.path)
-        print(json.dumps(info) if args.json else format_model_info(info))
-        return 0
-    s = load(args.path).summary()
-    if args.json:
-        print(json.dumps(s))
-        return 0
-    print(f"{args.path}")
-    print(f"  demonstrations : {s['n']}  (source: {s['source']}, seed {s['seed']}, judgeopt {s['package_version']})")
-    print(f"  success ratio  : {s['success_ratio']:.3f}")
-    print(f"  horizon, dt    : {s['horizon']} samples after the start, {s['dt']} s")
-    for name, rng in s["env_range"].items():
-        print(f"  {name:<15}: {rng[0]:.4g} .. {rng[1]:.4g}")
-    if s["per_env"]:
-        print("  per environment:")
-        for row in s["per_env"]:
-            env = "  ".join(f"{k}={row[k]:.3g}" for k in s["env_names"])
-            print(f"    {env}  n={row['n']:<5} success {row['success_ratio']:.3f}")
-    print(f"  errors         : {s['errors']}")
-    print(f"  made by        : {s['command']}")
-    return 0
-
-
 # -- render ----------------------------------------------------------------------------
 def cmd_render(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
@@ -149,41 +123,11 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
     return 0
 
 
-def cmd_import_demos(args: argparse.Namespace) -> int:
-    from judgeopt.data.dataset import save
-    from judgeopt.data.importer import HDF5_SUFFIXES, ImportError_, ImportSpec, import_demos, parse_hdf5_keys
-
-    paths = []
-    for p in map(Path, args.files):
-        paths += sorted(f for f in p.iterdir() if f.suffix.lower() in (".csv", *HDF5_SUFFIXES)
-                        and f.resolve() != Path(args.out).resolve()) if p.is_dir() else [p]  # not our own output
-    if not paths:
-        raise CLIError(f"no .csv, .h5 or .hdf5 files in {args.files}")
-    from judgeopt.tasks import get_task
-
-    refuse_overwrite([args.out], args.overwrite)
-    task = get_task(args.task)
-    env_names = tuple(n for n in args.env_names.split(",") if n) if args.env_names else task.env_names
-    try:
-        keys = parse_hdf5_keys(args.hdf5_keys, env_names, task.channel_names)
-    except ImportError_ as exc:
-        raise CLIError(str(exc)) from None
-    ds, errors = import_demos(paths, ImportSpec(env_names, dt=args.dt, horizon=args.horizon, hdf5_keys=keys,
-                                                task=task.name))
-    for e in errors:
-        print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
-    if ds is None:
-        raise CLIError(f"nothing imported from {len(paths)} file(s): every demonstration was bad (reasons above)")
-    ds.meta["command"] = command_line()
-    save(ds, args.out)
-    print(f"wrote {args.out}: {ds.n} demonstrations from {ds.meta['files_imported']} of {len(paths)} file(s) "
-          f"({len(errors)} skipped), success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, "
-          f"N = {ds.horizon}")
-    return 0
+EXIT_CODES_HELP = "exit codes:\n" + "\n".join(f"  {c.value:<4} {text}" for c, text in EXIT_MEANINGS.items())
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="judgeopt", description=__doc__)
+    p = Parser(prog="judgeopt", description=__doc__, epilog=EXIT_CODES_HELP, formatter_class=ListingHelpFormatter)
     p.add_argument("--version", action="version", version=f"judgeopt {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
@@ -191,13 +135,12 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Random demonstrations of a task (the scoop's: random spline scoops, paper IV-B) "
                        "run on the simulated UR5, labelled by outcome. A grid (--per-env N at each point of --grid "
                        "values, default the task's grid: the scoop's is the paper's 3 x 3) or --n random environments. "
-                       "Interrupted runs resume from OUT.partial/.")
-    c.add_argument("--out", required=True, help="HDF5 file to write (an unfinished one resumes)")
-    c.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
-    c.add_argument("--seed", type=int, default=0)
+                       "Interrupted runs resume from OUT.partial/.",
+                       parents=[out_option("FILE", "HDF5 file to write (an unfinished one resumes)", required=True),
+                                OVERWRITE, seed_option(), jobs_option(), QUIET])
     c.add_argument("--n", type=int, default=1000, help="number of demonstrations in random environments")
     c.add_argument("--per-env", type=int, default=0, help="demonstrations per grid environment (makes a grid)")
-    c.add_argument("--task", default=DEFAULT_TASK, help=f"the task to collect (default {DEFAULT_TASK}; `judgeopt tasks`)")
+    c.add_argument("--task", default=DEFAULT_TASK, help="the task to collect (`judgeopt tasks` lists them)")
     c.add_argument("--grid", type=env_values, action="append", metavar="NAME=V1,V2,...",
                    help="grid values of one environment variable (with --per-env; default: the task's grid)")
     c.add_argument("--range", type=env_range, action="append", metavar="NAME=LO,HI",
@@ -205,61 +148,37 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="one of the task's settings, e.g. commands.constant_force_share=0.4 (the scoop: share of "
                    "commands pressing at one near-constant force)")
-    c.add_argument("--jobs", type=int, default=-1, help="local worker processes (-1: all cores)")
-    c.add_argument("--scheduler", help="address of a Dask distributed scheduler (tcp://host:8786) to run on")
-    c.add_argument("--chunk", type=int, default=25, help="demonstrations per work unit (and per resume step)")
-    c.add_argument("--quiet", action="store_true", help="no progress bar")
+    c.add_argument("--chunk", type=positive, default=25, help="demonstrations per work unit (and per resume step)")
     c.set_defaults(func=cmd_collect)
 
     k = sub.add_parser("tasks", help="list the tasks judgeopt can plan for",
-                       description="Each task's channels (name, unit, kind), environment variables and horizon.")
-    k.add_argument("--json", action="store_true", help="print a JSON list of objects (name, channels, env_names, ...)")
+                       description="Each task's channels (name, unit, kind), environment variables and horizon. "
+                       "With --json: a list of objects (name, channels, env_names, environment, horizon, dt).",
+                       parents=[JSON])
     k.set_defaults(func=cmd_tasks)
 
-    i = sub.add_parser("inspect", help="summarise a dataset or model file",
-                       description="Dataset: counts, success ratios, metadata. Model (.pt/.json or its stem): "
-                       "architecture, horizon, environment variables, accuracy, provenance.")
-    i.add_argument("path")
-    i.add_argument("--json", action="store_true", help="print one JSON object")
-    i.set_defaults(func=cmd_inspect)
+    from judgeopt.cli.inspect import add_inspect_command
+
+    add_inspect_command(sub)
 
     r = sub.add_parser("render", help="replay demonstrations in PyBullet and save GIFs",
-                       description="Replays demonstrations of a dataset with the headless renderer.")
-    r.add_argument("--data", required=True)
-    r.add_argument("--out", default="renders", help="folder for the GIFs")
-    r.add_argument("--successes", type=int, default=2)
-    r.add_argument("--failures", type=int, default=2)
+                       description="Replays demonstrations of a dataset with the headless renderer.",
+                       parents=[out_option("DIR", "folder for the GIFs", default="renders")])
+    r.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
+    r.add_argument("--successes", type=int, default=2, help="how many successful demonstrations (the first ones)")
+    r.add_argument("--failures", type=int, default=2, help="how many failed demonstrations (the first ones)")
     r.add_argument("--index", type=int, nargs="+", help="render these demonstrations (row numbers) instead")
     r.set_defaults(func=cmd_render)
 
-    d = sub.add_parser("plot-data", help="plot max velocity against max force coloured by label (paper Fig. 13)")
-    d.add_argument("--data", required=True)
-    d.add_argument("--out", default="velocity_force.png")
-    d.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
+    d = sub.add_parser("plot-data", help="plot max velocity against max force coloured by label (paper Fig. 13)",
+                       parents=[out_option("FILE", "image to write (PNG, PDF or SVG by suffix)",
+                                           default="velocity_force.png"), OVERWRITE])
+    d.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
     d.set_defaults(func=cmd_plot_data)
 
-    m = sub.add_parser("import-demos", help="import recorded demonstrations (CSV or robomimic-style HDF5) into the "
-                       "dataset format",
-                       description="CSV columns: t [s], y [m], optional ydot [m/s], f [N], label (success/failure), "
-                       "the environment columns, optional demo_id (several demonstrations in one table). HDF5 "
-                       "(.h5/.hdf5, robomimic layout): data/demo_N groups with t (or a dt/control_freq attribute), "
-                       "y, optional ydot, f as datasets in the group or under obs/, a success attribute (or "
-                       "success/rewards/dones dataset) and the environment values as attributes (or in env_args). "
-                       "Each demonstration is validated and resampled to the planner's period; bad CSV files and "
-                       "bad HDF5 demo groups are reported (file, row/demo group, column/field) and the rest imported.")
-    m.add_argument("files", nargs="+", help="CSV or HDF5 files, or folders of them")
-    m.add_argument("--out", required=True, help="HDF5 dataset to write")
-    m.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
-    m.add_argument("--task", default=DEFAULT_TASK, help=f"whose channels the recordings hold (default {DEFAULT_TASK}: "
-                   "y, ydot, f; `judgeopt tasks`)")
-    m.add_argument("--env-names", help="environment columns, comma-separated (default: the task's, the scoop's y_obj,mu)")
-    m.add_argument("--hdf5-keys", metavar="NAME=PATH[:COL],...",
-                   help="where an HDF5 file keeps t, a channel (the scoop's y, ydot, f), success, dt or an environment "
-                   "value, e.g. 'y=obs/robot0_eef_pos:1,f=obs/ft:2,mu=friction' (:COL picks a column of a (T, k) array)")
-    m.add_argument("--dt", type=float, default=DEFAULT_DT, help="planner sample period in s")
-    m.add_argument("--horizon", type=int, default=DEFAULT_HORIZON, help="planner steps N")
-    m.set_defaults(func=cmd_import_demos)
+    from judgeopt.cli.recordings import add_recording_commands
 
+    add_recording_commands(sub)
     from judgeopt.cli.judge import add_judge_commands
 
     add_judge_commands(sub)
@@ -284,24 +203,66 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
+def exit_code(exc: BaseException) -> ExitCode | None:
+    """The exit code of an error the user can act on; None for a bug (its traceback is shown)."""
     from judgeopt.data.dataset import DatasetError
-    from judgeopt.judge.model import JudgeError
-    from judgeopt.planners.problem import ProblemError
+    from judgeopt.data.importer import ImportError_
     from judgeopt.files import OverwriteError
-    from judgeopt.tasks.base import EnvironmentRangeError, TaskError
+    from judgeopt.judge.casadi_fn import CasadiBuildError
+    from judgeopt.judge.model import JudgeError
+    from judgeopt.planners.calibration import CalibrationError
+    from judgeopt.planners.problem import InfeasibleProblemError, ProblemError, ProblemFileError
+    from judgeopt.planners.store import GeneratorFileError
+    from judgeopt.planners.trust_region import TrustRegionError
     from judgeopt.sim.robot import RobotDescriptionError
+    from judgeopt.tasks.base import EnvironmentRangeError, TaskError
     from judgeopt.trajectory import PlanError
 
+    if isinstance(exc, CLIError):
+        return exc.code
+    if isinstance(exc, InfeasibleProblemError):
+        return ExitCode.INFEASIBLE
+    if isinstance(exc, OverwriteError):
+        return ExitCode.EXISTS
+    if isinstance(exc, (CasadiBuildError, RobotDescriptionError)):
+        return ExitCode.MISSING
+    if isinstance(exc, (DatasetError, ImportError_, JudgeError, PlanError, ProblemFileError, GeneratorFileError,
+                        CalibrationError, TrustRegionError)):
+        return ExitCode.BAD_INPUT  # a file that cannot be read or used
+    if isinstance(exc, (ProblemError, EnvironmentRangeError, TaskError)):
+        return ExitCode.USAGE  # a value given on the command line
+    if isinstance(exc, ModuleNotFoundError) and missing_extra(exc):
+        return ExitCode.MISSING
+    return None
+
+
+def _log_to_stderr(quiet: bool) -> None:
+    """judgeopt's progress messages ("building the judge library ...") on stderr, unless --quiet."""
+    log = logging.getLogger("judgeopt")
+    if not any(getattr(h, "judgeopt_cli", False) for h in log.handlers):
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("judgeopt: %(message)s"))
+        handler.judgeopt_cli = True
+        log.addHandler(handler)
+    log.setLevel(logging.WARNING if quiet else logging.INFO)
+
+
+def main(argv: list[str] | None = None) -> int:
     set_argv(argv)
     args = build_parser().parse_args(argv)
+    command = f"judgeopt {args.command}"
+    _log_to_stderr(getattr(args, "quiet", False))
     try:
-        return args.func(args)
-    except (CLIError, DatasetError, JudgeError, PlanError, ProblemError, EnvironmentRangeError, RobotDescriptionError,
-            TaskError, OverwriteError) as exc:
-        print(f"judgeopt {args.command}: error: {exc}", file=sys.stderr)
-        return 2
+        return int(args.func(args))
     except KeyboardInterrupt:
-        print(f"judgeopt {args.command}: interrupted (a collection resumes when rerun)", file=sys.stderr)
-        return 130
-
+        print_error(command, "interrupted (workers stopped; a collection resumes when rerun)", ExitCode.INTERRUPTED)
+        return ExitCode.INTERRUPTED
+    except Exception as exc:
+        code = exit_code(exc)
+        if code is None:
+            if wants_json():
+                print_error(command, f"internal error: {type(exc).__name__}: {exc}", ExitCode.INTERNAL)
+            raise
+        message = missing_extra(exc) if isinstance(exc, ModuleNotFoundError) else str(exc)
+        print_error(command, message, code)
+        return code

@@ -13,13 +13,12 @@ from typing import Any
 
 import numpy as np
 
-from judgeopt.cli.common import command_line, value_range
+from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, out_option,
+                                 positive, seed_option, threads_option, value_range)
 from judgeopt.files import refuse_overwrite
 from judgeopt.planners.problem import AXIS_FIELDS, FORCE_FIELDS, SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
-EXIT_INFEASIBLE = 3  # the limits admit no plan at all (found before any solver runs)
-EXIT_UNLIKELY = 4  # plans were made, but no method's plan is likely to succeed
 
 _FIELD_TYPES = {f.name: f.type for f in dataclasses.fields(Problem)}
 
@@ -53,13 +52,22 @@ def _parser_type(name: str):
 
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
-    """--problem FILE and one option per problem field (`--qdot-max 0.4`), env by name."""
-    g = p.add_argument_group("problem", "a problem file and overrides of any of its values (SI units)")
-    g.add_argument("--problem", default=DEFAULT_PROBLEM, help=f"problem TOML file (default {DEFAULT_PROBLEM})")
+    """--problem FILE, one option per problem field (`--qdot-max 0.4`), the environment by name
+    (`--mu 2`) or as --env NAME=VALUE. Each help names the unit and the default problem's value."""
+    from judgeopt.files import resolve
+    from judgeopt.planners.problem import FIELD_HELP
+
+    default = load_problem(resolve(DEFAULT_PROBLEM))
+    g = p.add_argument_group("problem", "a problem file, and any of its values overridden; a position, velocity or "
+                             "terminal value is one number for every axis or one per axis (0.3,0)")
+    g.add_argument("--problem", default=DEFAULT_PROBLEM, metavar="FILE", help="problem TOML file")
     for section, names in SECTIONS.items():
         for name in names:
+            shown = getattr(default, name)
             g.add_argument(f"--{name.replace('_', '-')}", dest=f"set_{name}", type=_parser_type(name), metavar="X",
-                           help=f"override [{section}] {name}")
+                           help=f"{FIELD_HELP[name]} ([{section}] {name}; {Path(DEFAULT_PROBLEM).name}: {shown})")
+            if name == "judge":  # the name older scripts use; one flag in --help
+                g.add_argument("--judge-model", dest="set_judge", help=argparse.SUPPRESS)
     from judgeopt.tasks import get_task, task_names
 
     variables: dict[str, list] = {}
@@ -70,7 +78,10 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
         v = owners[0][1]
         unit = f" in {v.unit}" if v.unit else ""
         g.add_argument(f"--{name.replace('_', '-')}", dest=f"env_{name}", metavar="X or LO,HI",
-                       help=f"{v.description or name}{unit} (task {', '.join(t for t, _ in owners)})")
+                       help=f"{v.description or name}{unit}: one value, or a range to draw from (task "
+                       f"{', '.join(t for t, _ in owners)}; default: the problem's)")
+    g.add_argument("--env", type=env_assignment, action="append", metavar="NAME=X or NAME=LO,HI",
+                   help="any environment variable by name, e.g. --env mu=2 (the same as --mu 2)")
 
 
 def problem_from_args(args: argparse.Namespace) -> Problem:
@@ -79,6 +90,11 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     problem = load_problem(resolve(args.problem))
     values: dict[str, Any] = {k[4:]: v for k, v in vars(args).items() if k.startswith("set_") and v is not None}
     values.update({k[4:]: v for k, v in vars(args).items() if k.startswith("env_") and v is not None})
+    for name, value in args.env or []:
+        if name not in problem.environment:
+            raise CLIError(f"--env {name}: not an environment variable of task {problem.task!r} (it has "
+                           f"{', '.join(problem.environment)})")
+        values[name] = value
     return problem.with_overrides(**values)
 
 
@@ -147,7 +163,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.method == "both" and not args.generator:
         from judgeopt.planners.solve import choose_models
 
-        if choose_models(problem, methods, args.judge_model, None, args.models).generator is None:
+        if choose_models(problem, methods, None, None, args.models).generator is None:
             methods, fallback = ("direct",), ("no generator covers these limits: the direct solve runs alone, from "
                                               "its min-jerk guess (train one with `judgeopt train-generator`)")
     several = len(methods) > 1
@@ -158,8 +174,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
         export_format(args.export)
     refuse_overwrite(targets + ([args.plot] if args.plot else []), args.overwrite)
-    planners = Planners.load(problem, methods, judge=args.judge_model, generator=args.generator,
-                             models_dir=args.models)
+    planners = Planners.load(problem, methods, generator=args.generator, models_dir=args.models,
+                             casadi_backend=args.casadi_backend)
     if fallback:
         planners.notes.append(fallback)
     if args.set_calibration and not planners.calibrators:  # asked for by name, and it knows none of these planners
@@ -257,7 +273,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
                       "  no single limit relaxed within the demonstrations' range (f_max, q̇_max, f_min) makes a plan "
                       "likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
-    return EXIT_INFEASIBLE if infeasible else EXIT_UNLIKELY if unlikely else 0
+    return ExitCode.INFEASIBLE if infeasible else ExitCode.UNLIKELY if unlikely else ExitCode.OK
 
 
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
@@ -268,7 +284,7 @@ def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: Prob
                           "problem": problem.to_dict(), "results": []}))
     else:
         print(f"judgeopt solve: infeasible: {exc}", file=sys.stderr)
-    return EXIT_INFEASIBLE
+    return ExitCode.INFEASIBLE
 
 
 # -- train-generator -------------------------------------------------------------------------
@@ -294,12 +310,12 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
         ranges.check(problem)
     elif given:
         raise ProblemError(f"--{next(iter(given)).replace('_', '-')}-range needs --conditioned")
-    jpath = resolve(args.judge_model or problem.judge, (".json",))
+    jpath = resolve(problem.judge, (".json",))
     judge, jmeta = load_judge(jpath)
     check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
-    torch.set_num_threads(args.jobs or os.cpu_count() or 1)
+    torch.set_num_threads(args.threads or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
-                              threads=args.jobs, progress=not args.quiet)
+                              threads=args.threads, progress=not args.quiet)
     loss_judge, pessimistic = judge, None
     if problem.ensemble:  # train against the ensemble's pessimistic score instead of the one judge
         from judgeopt.judge.ensemble import PessimisticJudge, load_ensemble
@@ -339,7 +355,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     meta = {"created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "command": command_line(),
             "seed": args.seed, "train_config": train_config_dict(tc), "torch_version": torch.__version__,
-            "judge": {"path": str(args.judge_model or problem.judge), "weights_sha256": jmeta["weights_sha256"]},
+            "judge": {"path": str(problem.judge), "weights_sha256": jmeta["weights_sha256"]},
             "metrics": metrics, **({"loss_judge": pessimistic} if pessimistic else {}),
             # where the environments were drawn from: a fine-tuned generator keeps its first
             # problem (and input scaling) in "problem", but may have been trained on wider ranges
@@ -371,7 +387,9 @@ def _write_history(history: list[dict], out: Path) -> None:
 
 
 def add_planner_commands(sub: argparse._SubParsersAction) -> None:
-    s = sub.add_parser("solve", help="plan a scoop under the problem's limits with the shipped models",
+    s = sub.add_parser("solve", help="plan a motion under the problem's limits with the shipped models",
+                       parents=[out_option("FILE", "write each plan as CSV at 1 kHz, the importer's columns (one file "
+                                           "per method: NAME_METHOD.csv)"), OVERWRITE, JSON, QUIET],
                        description="Plan with the amortised generator and/or the direct Ipopt solve against the "
                        "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
@@ -381,45 +399,47 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    "baseline (cross-entropy method over spline commands, same judge); all: the three")
     s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
-    s.add_argument("--out", help="write the plan as CSV at 1 kHz (one file per method: NAME_METHOD.csv)")
-    s.add_argument("--overwrite", action="store_true", help="replace --out, --save-json and --plot files that exist")
     s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "
                    "provenance (models' sha256, git commit, command) as one JSON file (one per method: "
                    "NAME_METHOD.json); read back with judgeopt.planners.export.read_plan_json")
     s.add_argument("--export", metavar="FILE", help="write the plan for a robot (one per method: NAME_METHOD.EXT): "
                    ".csv with the importer's columns, or .mcap with ROS 2 messages along the problem's [frame] "
                    "(pip install 'judgeopt[ros]'); as `judgeopt export` does from a --save-json file")
-    s.add_argument("--plot", help="write q, q̇ and f against time with the allowed region (PNG)")
-    s.add_argument("--json", action="store_true", help="print one JSON object")
-    s.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
+    s.add_argument("--plot", metavar="FILE", help="write q, q̇ and f against time with the allowed region (PNG)")
     s.add_argument("--generator", help="generator model (default: one in --models trained for these limits)")
-    s.add_argument("--models", default="models", help="folder searched for generators")
+    s.add_argument("--models", default="models", metavar="DIR",
+                   help="folder searched for generators (models/: $JUDGEOPT_MODELS, then the shipped models)")
+    add_backend_argument(s)
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")
     s.set_defaults(func=cmd_solve)
 
     t = sub.add_parser("train-generator", help="train the amortised generator through the frozen judge (eqs. 2-4)",
+                       parents=[out_option("STEM", "model path without suffix, e.g. out/generator_slow (writes "
+                                           "STEM.pt and STEM.json)", required=True), OVERWRITE, seed_option(),
+                                threads_option(1), QUIET],
                        description="Each epoch samples --batch environments from the problem's ranges and takes one "
                        "Adam step on L = L1 + L2. Seeded and deterministic for a given thread count.")
     add_problem_arguments(t)
-    t.add_argument("--out", required=True, help="model path stem, e.g. out/generator_slow")
-    t.add_argument("--overwrite", action="store_true", help="replace the model at --out if it exists (e.g. to "
-                   "fine-tune a generator in place with --init)")
-    t.add_argument("--judge-model", help="judge model (default: the problem's [models] judge)")
-    t.add_argument("--epochs", type=int, default=5000)
+    t.add_argument("--epochs", type=positive, default=5000, help="Adam steps")
     t.add_argument("--init", metavar="GENERATOR", help="fine-tune this generator instead of starting from scratch")
-    t.add_argument("--batch", type=int, default=100, help="environments per epoch")
-    t.add_argument("--lr", type=float, default=1e-3)
-    t.add_argument("--seed", type=int, default=0)
-    t.add_argument("--jobs", type=int, default=1, help="torch threads (1: bit-reproducible)")
-    t.add_argument("--quiet", action="store_true")
+    t.add_argument("--batch", type=positive, default=100, help="environments per epoch")
+    t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate")
     c = t.add_argument_group("conditioned generator", "one generator for any q̇_max, f_min, f_max in ranges: the "
                              "limits are extra inputs, drawn per training trajectory (uniform)")
     c.add_argument("--conditioned", action="store_true",
                    help="condition on the limits (the problem's other limits stay fixed)")
     add_limit_range_arguments(c)
     t.set_defaults(func=cmd_train_generator)
+
+
+def add_backend_argument(p: argparse.ArgumentParser) -> None:
+    from judgeopt.judge.casadi_fn import BACKENDS, DEFAULT_BACKEND
+
+    p.add_argument("--casadi-backend", choices=("auto", *BACKENDS), default=DEFAULT_BACKEND,
+                   help="how the direct solve evaluates the judge: auto takes l4casadi where installed (fastest; its "
+                   "library builds once per judge, about 15 s), else native (the CasADi graph, about 2x slower)")
 
 
 def add_limit_range_arguments(group, defaults=None) -> None:
@@ -462,10 +482,9 @@ def cmd_fit_trust_region(args) -> int:
 
 def add_trust_region_command(sub) -> None:
     t = sub.add_parser("fit-trust-region", help="model the successful demonstrations for the direct solve's "
-                       "trust region ([solver] trust_region, [models] trust_model)")
-    t.add_argument("--data", default="data/train.h5")
-    t.add_argument("--components", type=int, default=8)
-    t.add_argument("--out", default="out/trust_region", help="model path stem (the shipped one is "
-                   "models/trust_region_default)")
-    t.add_argument("--overwrite", action="store_true", help="replace the model at --out if it exists")
+                       "trust region ([solver] trust_region, [models] trust_model)",
+                       parents=[out_option("STEM", "model path without suffix (writes STEM.json; the shipped one is "
+                                           "models/trust_region_default)", default="out/trust_region"), OVERWRITE])
+    t.add_argument("--data", default="data/train.h5", metavar="FILE", help="demonstrations (HDF5)")
+    t.add_argument("--components", type=positive, default=8, help="principal components kept")
     t.set_defaults(func=cmd_fit_trust_region)

@@ -29,7 +29,7 @@ def cmd_refine(args: argparse.Namespace) -> int:
                        chunk=args.chunk, limit_ranges=ranges)
     out = Path(args.out)
     generator = resolve(args.generator, (".json",)) if args.generator else None
-    figures = refine(problem, resolve(args.train), resolve(args.judge_model or problem.judge, (".json",)), generator,
+    figures = refine(problem, resolve(args.train), resolve(problem.judge, (".json",)), generator,
                      out, cfg, test_data=resolve(args.test) if args.test else None, n_jobs=args.jobs,
                      scheduler=args.scheduler, progress=not args.quiet, plans_only=args.plans_only,
                      outcomes=args.outcomes, on_error=lambda e: print(f"judgeopt refine: left out: {e}", file=sys.stderr))
@@ -97,6 +97,7 @@ def plot(figures: list[dict]) -> Figure:
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:
+    from judgeopt.cli.common import QUIET, jobs_option, out_option, positive, seed_option
     from judgeopt.cli.planners import add_limit_range_arguments, add_problem_arguments
     from judgeopt.planners.limits import WIDE_LIMITS
 
@@ -104,26 +105,23 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
                        description="Each round plans for --n fresh environments with the current judge, replays "
                        "every plan in PyBullet, adds the labelled outcomes to the training data and fine-tunes the "
                        "judge (and with --generator-epochs the generator). Parallel like collection; a rerun "
-                       "resumes. Models go to --out; models/ changes only with --install NAME.")
+                       "resumes. Models go to --out; models/ changes only with --install NAME.",
+                       parents=[out_option("DIR", "folder for every round's plans, outcomes and models (a rerun "
+                                           "resumes it)", default="out/refine"), seed_option(), jobs_option(), QUIET])
     add_problem_arguments(r)
-    r.add_argument("--rounds", type=int, default=3)
+    r.add_argument("--rounds", type=positive, default=3, help="rounds of plan, replay, fine-tune")
     r.add_argument("--n", type=int, default=150, help="environments per round")
-    r.add_argument("--methods", nargs="+", choices=("direct", "amortized", "cem"), default=["direct"])
-    r.add_argument("--train", default="data/train.h5", help="the demonstrations the judge was trained on")
-    r.add_argument("--test", default="data/test.h5", help="held-out demonstrations to score each new judge")
-    r.add_argument("--judge-model", help="starting judge (default: the problem's)")
-    r.add_argument("--generator", help="generator to warm-start the direct solve and to fine-tune")
-    r.add_argument("--judge-epochs", type=int, default=8)
+    r.add_argument("--methods", nargs="+", choices=("direct", "amortized", "cem"), default=["direct"],
+                   help="planners whose plans are replayed and added")
+    r.add_argument("--train", default="data/train.h5", metavar="FILE", help="the demonstrations the judge was trained on")
+    r.add_argument("--test", default="data/test.h5", metavar="FILE", help="held-out demonstrations to score each new judge")
+    r.add_argument("--generator", metavar="STEM", help="generator to warm-start the direct solve and to fine-tune")
+    r.add_argument("--judge-epochs", type=positive, default=8, help="fine-tuning epochs of the judge per round")
     r.add_argument("--weight", type=int, default=3, help="copies of the planners' outcomes in the training set")
-    r.add_argument("--generator-epochs", type=int, default=0)
-    r.add_argument("--seed", type=int, default=0)
-    r.add_argument("--out", default="out/refine")
-    r.add_argument("--jobs", type=int, default=-1)
-    r.add_argument("--scheduler", help="address of a Dask distributed scheduler")
-    r.add_argument("--chunk", type=int, default=5)
+    r.add_argument("--generator-epochs", type=int, default=0, help="fine-tuning steps of the generator per round")
+    r.add_argument("--chunk", type=positive, default=5, help="environments per work unit (and per resume step)")
     r.add_argument("--install", metavar="NAME", help="copy round --rounds' models to models/judge_NAME (and "
                    "generator_NAME)")
-    r.add_argument("--quiet", action="store_true")
     robot = r.add_argument_group("with a robot", "run the rounds on a robot instead of the simulator "
                                  "(docs/remedies.md): the same environments, limits, models and training")
     robot.add_argument("--plans-only", action="store_true", help="write the next round's plans for execution "

@@ -38,6 +38,10 @@ class ProblemError(ValueError):
     """A problem file or override that is malformed or inconsistent."""
 
 
+class ProblemFileError(ProblemError):
+    """A problem file that cannot be read, or holds values that are wrong (the message names the file)."""
+
+
 class InfeasibleProblemError(ProblemError):
     """Constraints that no trajectory can satisfy; `conflict` names them."""
 
@@ -60,6 +64,35 @@ SECTIONS: dict[str, tuple[str, ...]] = {
 }
 #: the position, velocity and force limits (bounds a planner can change without being rebuilt)
 LIMIT_NAMES = SECTIONS["limits"]
+#: what each field means, with its unit (the command line's help; position fields per axis of the task)
+FIELD_HELP: dict[str, str] = {
+    "steps": "planning steps N",
+    "dt": "sample period in s",
+    "q0": "start position in m",
+    "qdot0": "start velocity in m/s",
+    "q_min": "lowest position in m",
+    "q_max": "highest position in m",
+    "qdot_min": "lowest velocity in m/s",
+    "qdot_max": "highest velocity in m/s",
+    "f_min": "lowest commanded force in N",
+    "f_max": "highest commanded force in N",
+    "q_end": "end position in m, an environment variable's name (e.g. y_obj) or free",
+    "qdot_end": "end velocity in m/s",
+    "P": "weight of the judge's log-probability (eq. 3)",
+    "Q": "generator: weight of limit violations (eq. 4)",
+    "R": "generator: weight of the terminal error (eq. 4)",
+    "acc_weight": "direct solve: weight of squared acceleration, per (m/s^2)^2 s",
+    "force_rate_weight": "direct solve: weight of squared force rate, per (N/s)^2 s",
+    "p_min": "direct solve: hard lower bound on the judge's probability",
+    "max_iter": "direct solve: Ipopt iterations",
+    "tol": "direct solve: Ipopt tolerance",
+    "pessimism": "direct solve: k in mean - k std of the ensemble's logits",
+    "trust_region": "direct solve: largest distance to the demonstrations (Mahalanobis)",
+    "judge": "judge model (path stem or models/NAME)",
+    "ensemble": "ensemble folder for pessimistic planning",
+    "trust_model": "trust-region model (path stem)",
+    "calibration": "calibration file (JSON) for the predicted success",
+}
 
 
 @dataclass(frozen=True)
@@ -393,12 +426,16 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
 
 
 def load_problem(path: str | Path) -> Problem:
-    """Read and validate a problem file; every error is a ProblemError naming the file."""
+    """Read and validate a problem file; every error is a ProblemFileError naming the file."""
     p = Path(path)
-    flat = _read_toml(p.resolve())
-    flat.setdefault("name", p.stem)
-    flat["source"] = str(path)
     try:
+        flat = _read_toml(p.resolve())
+        flat.setdefault("name", p.stem)
+        flat["source"] = str(path)
         return Problem.from_dict(flat)
     except TypeError as exc:  # a wrong type the dataclass cannot hold
-        raise ProblemError(f"{path}: {exc}") from None
+        raise ProblemFileError(f"{path}: {exc}") from None
+    except ProblemFileError:
+        raise
+    except ProblemError as exc:
+        raise ProblemFileError(str(exc) if str(path) in str(exc) else f"{path}: {exc}") from None

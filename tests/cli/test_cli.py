@@ -39,7 +39,6 @@ def test_inspect_prints_a_summary(tiny, capsys):
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["inspect", "nope.h5"], "no such file"),
         (["collect", "--out", "x.h5", "--range", "mu=3,1"], "lower bound 3.0 is above upper bound 1.0"),
         (["collect", "--out", "x.h5", "--range", "y_obj=0.1,0.9"], "y_obj = 0.9 is outside"),
         (["collect", "--out", "x.h5", "--grid", "mu=1,2"], "give --per-env"),
@@ -55,6 +54,13 @@ def test_bad_input_is_one_clear_line_and_exit_2(argv, message, capsys, tmp_path,
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_missing_input_file_is_exit_5(capsys, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    assert main(["inspect", "nope.h5"]) == 5
+    err = capsys.readouterr().err
+    assert "no such file" in err and len(err.strip().splitlines()) == 1
 
 
 def test_render_rejects_an_index_out_of_range(tiny, capsys, tmp_path):

@@ -26,7 +26,7 @@ def test_an_existing_file_is_refused_without_overwrite(argv, tmp_path, capsys):
         f = f.with_suffix(".csv")
         f.write_text("keep me")
         argv[-1] = str(f)
-    assert main(argv) == 2
+    assert main(argv) == 6  # ExitCode.EXISTS
     assert "exists: pass --overwrite to replace it" in capsys.readouterr().err
     assert f.read_text() == "keep me" and m.with_suffix(".json").read_text() == "keep me"
 

@@ -330,7 +330,7 @@ def test_cli_train_test_inspect(tmp_path, capsys):
     save(synthetic(100, seed=2), test)
     out = tmp_path / "models" / "j"
     rc = main(["train-judge", "--train", str(train), "--test", str(test), "--out", str(out), "--epochs", "2",
-               "--lstm-units", "8", "--fc-units", "8", "--batch-size", "32", "--jobs", "1", "--quiet"])
+               "--lstm-units", "8", "--fc-units", "8", "--batch-size", "32", "--threads", "1", "--quiet"])
     assert rc == 0
     for suffix in (".pt", ".json", ".history.csv", ".history.json", ".accuracy.png"):
         assert out.with_name("j" + suffix).exists(), suffix
@@ -339,10 +339,10 @@ def test_cli_train_test_inspect(tmp_path, capsys):
     assert len(meta["train_data"]["sha256"]) == 64 and meta["metrics"]["n_val"] == 20
     assert 0 <= meta["metrics"]["test_accuracy"] <= 1
     capsys.readouterr()
-    assert main(["test-judge", "--model", str(out), "--data", str(test), "--json"]) == 0
+    assert main(["test-judge", "--judge", str(out), "--data", str(test), "--json"]) == 0
     res = json.loads(capsys.readouterr().out)
     assert res["n"] == 100 and res["accuracy"] == pytest.approx(meta["metrics"]["test_accuracy"])
-    assert main(["test-judge", "--model", str(out), "--data", str(test)]) == 0
+    assert main(["test-judge", "--judge", str(out), "--data", str(test)]) == 0
     assert "confusion matrix" in capsys.readouterr().out
     info = inspect_model(out)
     assert info["config"]["lstm_units"] == 8 and info["parameters"] > 0
@@ -355,16 +355,16 @@ def test_cli_errors_are_clear(tmp_path, capsys):
     save_judge(m, tmp_path / "j")
     data = tmp_path / "d.h5"
     save(synthetic(10, horizon=9), data)
-    assert main(["test-judge", "--model", str(tmp_path / "j"), "--data", str(data)]) == 2
+    assert main(["test-judge", "--judge", str(tmp_path / "j"), "--data", str(data)]) == 5
     assert "horizon N = 9" in capsys.readouterr().err
-    assert main(["test-judge", "--model", str(tmp_path / "missing"), "--data", str(data)]) == 2
+    assert main(["test-judge", "--judge", str(tmp_path / "missing"), "--data", str(data)]) == 5
     assert "missing.json: no such" in capsys.readouterr().err
     (tmp_path / "bad.json").write_text("{not json")
-    assert main(["test-judge", "--model", str(tmp_path / "bad"), "--data", str(data)]) == 2
+    assert main(["test-judge", "--judge", str(tmp_path / "bad"), "--data", str(data)]) == 5
     assert "corrupt model metadata" in capsys.readouterr().err
     not_h5 = tmp_path / "x.h5"
     not_h5.write_text("hello")
-    assert main(["test-judge", "--model", str(tmp_path / "j"), "--data", str(not_h5)]) == 2
+    assert main(["test-judge", "--judge", str(tmp_path / "j"), "--data", str(not_h5)]) == 5
     assert "not a readable HDF5 file" in capsys.readouterr().err
     assert main(["train-judge", "--train", str(data), "--out", str(tmp_path / "k"), "--env-names", "zeta",
                  "--quiet"]) == 2

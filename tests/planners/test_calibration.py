@@ -100,7 +100,7 @@ def test_calibrate_cli_fits_from_evaluation_folders_and_keeps_other_settings(tmp
     assert set(load_calibration(out)) == {"s1", "s2"}  # s2 kept from before
     assert main(["calibrate", str(tmp_path / "ev"), "--out", str(out), "--replace"]) == 0
     assert set(load_calibration(out)) == {"s1"}
-    assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(out)]) == 2
+    assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(out)]) == 5  # ExitCode.BAD_INPUT: a folder without evaluated plans
     assert "no evaluated plans" in capsys.readouterr().err
 
 
