@@ -31,21 +31,31 @@ def test_an_existing_file_is_refused_without_overwrite(argv, tmp_path, capsys):
     assert f.read_text() == "keep me" and m.with_suffix(".json").read_text() == "keep me"
 
 
+def _chunks(out, command):
+    return list((out.with_name(out.name + ".partial") if command == "collect" else out / "partial").glob("*"))
+
+
 @pytest.mark.slow
-def test_sigterm_stops_a_collections_workers(tmp_path):
+@pytest.mark.parametrize("command, signum", [
+    ("collect", signal.SIGTERM), ("collect", signal.SIGINT), ("evaluate", signal.SIGTERM), ("evaluate", signal.SIGINT),
+])
+def test_an_interrupt_stops_a_parallel_commands_workers(command, signum, tmp_path):
+    """Ctrl-C (SIGINT) or SIGTERM: exit 130, no worker left running, finished chunks kept for the rerun."""
     psutil = pytest.importorskip("psutil")
-    out = tmp_path / "c.h5"
-    p = subprocess.Popen([sys.executable, "-m", "judgeopt.cli", "collect", "--out", str(out), "--n", "400",
-                          "--jobs", "2", "--chunk", "5", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
-    partial = tmp_path / "c.h5.partial"
+    out = tmp_path / ("c.h5" if command == "collect" else "ev")
+    argv = {"collect": ["collect", "--out", str(out), "--n", "400", "--chunk", "5"],
+            "evaluate": ["evaluate", "planners", "--n", "40", "--chunk", "2", "--methods", "amortized",
+                         "--no-baselines", "--out", str(out)]}[command]
+    p = subprocess.Popen([sys.executable, "-m", "judgeopt.cli", *argv, "--jobs", "2", "--quiet"],
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     t0 = time.time()
-    while time.time() - t0 < 120 and len(list(partial.glob("chunk_*"))) < 2:
+    while time.time() - t0 < 180 and len(_chunks(out, command)) < 2 and p.poll() is None:
         time.sleep(0.2)
     workers = psutil.Process(p.pid).children(recursive=True)
-    assert workers
-    p.send_signal(signal.SIGTERM)
+    assert workers and p.poll() is None, p.stderr.read().decode()[-2000:] if p.poll() is not None else "no workers"
+    p.send_signal(signum)
     assert p.wait(60) == 130
     time.sleep(3)
     assert [w for w in workers if w.is_running() and w.status() != psutil.STATUS_ZOMBIE] == []
-    assert len(list(partial.glob("chunk_*"))) >= 2  # what was done is kept: a rerun resumes
+    assert len(_chunks(out, command)) >= 2  # what was done is kept: a rerun resumes
     p.stdout.close(), p.stderr.close()
