@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.common import CLIError
+from judgeopt.cli.common import OVERWRITE, CLIError, out_option
 from judgeopt.files import refuse_overwrite
 
 FORMAT_CHOICES = ("csv", "mcap")
@@ -55,11 +55,10 @@ def add_export_commands(sub: argparse._SubParsersAction) -> None:
                        "([frame] in the problem file; default: the task's axes in base_link): PoseStamped on "
                        "/judgeopt/pose, TwistStamped on /judgeopt/twist, WrenchStamped on /judgeopt/wrench, and the "
                        "plan's provenance as JSON on /judgeopt/plan_info (needs pip install 'judgeopt[ros]'); play "
-                       "it with `ros2 bag play -s mcap FILE`.")
+                       "it with `ros2 bag play -s mcap FILE`.",
+                       parents=[out_option("FILE", "file to write (.csv or .mcap)", required=True), OVERWRITE])
     e.add_argument("plan", help="plan JSON file (judgeopt solve --save-json)")
-    e.add_argument("--out", required=True, metavar="FILE", help="file to write (.csv or .mcap)")
     e.add_argument("--format", choices=FORMAT_CHOICES, help="csv or mcap (default: from the --out suffix)")
-    e.add_argument("--overwrite", action="store_true", help="replace --out if it exists")
     e.add_argument("--step", type=float, default=1e-3, metavar="S",
                    help="sample period of the written commands in s (default 0.001: the controller's 1 kHz)")
     e.add_argument("--start-time", type=float, default=0.0, metavar="S",
