@@ -36,6 +36,8 @@ NOTEBOOKS = sorted(NOTEBOOK_DIR.glob("*.ipynb"))
 DEFAULT_OUT = "out/notebook"
 DURATION = re.compile(r"\b\d+(?:\.\d+)?(?:e[-+]?\d+)? ?(?:ms|s)\b")
 ADDRESS = re.compile(r"0x[0-9a-fA-F]{6,}")
+#: an absolute path up to a folder of a checkout (whichever checkout executed the notebook)
+CHECKOUT = re.compile(r"(?:/[\w.+-]+)+(?=/(?:judgeopt|notebooks|data|models|docs|tests)/)")
 NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
 
 
@@ -60,9 +62,11 @@ def execute(path: Path, out: Path | None = None, timeout: int = 900):
 
 def mask(text: str, out: Path | None = None) -> str:
     """`text` without what legitimately differs between two runs (see the module docstring)."""
-    for folder in ((out.resolve(), out) if out is not None else (NOTEBOOK_DIR / DEFAULT_OUT, DEFAULT_OUT)):
-        text = text.replace(str(folder), "<out>")
-    text = text.replace(str(REPO), "<repo>")
+    if out is not None:
+        text = text.replace(str(out.resolve()), "<out>").replace(str(out), "<out>")
+    text = CHECKOUT.sub("<repo>", text).replace(f"<repo>/notebooks/{DEFAULT_OUT}", "<out>")
+    if out is None:
+        text = text.replace(DEFAULT_OUT, "<out>")
     return ADDRESS.sub("<address>", DURATION.sub("<duration>", text))
 
 
@@ -125,6 +129,10 @@ def test_differences_ignore_durations_and_paths_and_catch_everything_else(tmp_pa
     same = [[("stdout", mask(f"solved in 9.5 s at 0x7f00cc33dd44; p = 0.7452, 43 successes, wrote {tmp_path}/x.png",
                              tmp_path))], [("figure", "")]]
     assert differences(committed, same) == []
+    elsewhere = [[("stdout", mask("read /home/ci/judgeopt/judgeopt/tasks/a.toml, wrote /home/ci/judgeopt/notebooks/"
+                                  "out/notebook/x.png"))]]
+    here = [[("stdout", mask(f"read {REPO}/judgeopt/tasks/a.toml, wrote {tmp_path.resolve()}/x.png", tmp_path))]]
+    assert differences(elsewhere, here) == []
     assert differences(committed, [[("stdout", committed[0][0][1].replace("0.7413", "0.7613"))], [("figure", "")]])
     assert differences(committed, [[("stdout", committed[0][0][1].replace("successes", "failures"))], [("figure", "")]])
     assert differences(committed, [[("stdout", committed[0][0][1].replace("43", "52"))], [("figure", "")]])
