@@ -84,7 +84,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.tables import run_table
     from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.cli.planners import limit_ranges_from_args
-    from judgeopt.planners.limits import WIDE_LIMITS
+    from judgeopt.planners.limits import wide_limits
     from judgeopt.planners.problem import load_problem
     from judgeopt.planners.result import reassess
     from judgeopt.files import resolve
@@ -92,7 +92,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
     vary = _vary(problem, args.vary) if args.vary else None
     if args.random_limits:
-        ranges = limit_ranges_from_args(args, WIDE_LIMITS)
+        ranges = limit_ranges_from_args(args, wide_limits(problem.task))
         ranges.check(problem)
         sets = random_limit_sets(args.random_limits, args.seed, ranges)
     else:
@@ -213,7 +213,6 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     from judgeopt.cli.planners import add_limit_range_arguments
-    from judgeopt.planners.limits import WIDE_LIMITS
 
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
@@ -232,7 +231,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "LO,HI instead of the problem's range (seeded by the range: e.g. mu=1,3)")
     e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from the "
                    "--*-range ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
-    add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"), WIDE_LIMITS)
+    add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"))
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")
     e.add_argument("--n", type=positive, default=100, help="environments per row")

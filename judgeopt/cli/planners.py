@@ -305,8 +305,11 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     problem = problem_from_args(args)
     ranges = None
     given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
-    if args.conditioned:
-        ranges = limit_ranges_from_args(args)
+    if args.conditioned:  # default: the shipped conditioned generator's ranges; another task's wide ones
+        from judgeopt.planners.limits import LimitRanges, wide_limits
+        from judgeopt.tasks import DEFAULT_TASK
+
+        ranges = limit_ranges_from_args(args, LimitRanges() if problem.task == DEFAULT_TASK else wide_limits(problem.task))
         ranges.check(problem)
     elif given:
         raise ProblemError(f"--{next(iter(given)).replace('_', '-')}-range needs --conditioned")
@@ -430,7 +433,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                              "limits are extra inputs, drawn per training trajectory (uniform)")
     c.add_argument("--conditioned", action="store_true",
                    help="condition on the limits (the problem's other limits stay fixed)")
-    add_limit_range_arguments(c)
+    from judgeopt.planners.limits import LimitRanges
+
+    add_limit_range_arguments(c, LimitRanges())  # the scoop's; another task: its wide ranges
     t.set_defaults(func=cmd_train_generator)
 
 
@@ -443,24 +448,29 @@ def add_backend_argument(p: argparse.ArgumentParser) -> None:
 
 
 def add_limit_range_arguments(group, defaults=None) -> None:
-    """--qdot-max-range, --f-min-range, --f-max-range LO,HI (default: `defaults`, a LimitRanges)."""
-    from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
+    """--qdot-max-range, --f-min-range, --f-max-range LO,HI (default: `defaults`, a LimitRanges;
+    None: the problem's task's wide ranges, each task's listed in the help)."""
+    from judgeopt.planners.limits import CONDITION_NAMES, wide_limits
+    from judgeopt.tasks import get_task, task_names
 
-    defaults = defaults or LimitRanges()
     for name in CONDITION_NAMES:
-        lo, hi = getattr(defaults, name)
+        if defaults is not None:
+            shown = "{:g},{:g}".format(*getattr(defaults, name))
+        else:
+            shown = "the task's: " + ", ".join("{} {:g},{:g}".format(t, *getattr(wide_limits(t), name))
+                                                for t in task_names() if get_task(t).wide_limits)
         group.add_argument(f"--{name.replace('_', '-')}-range", dest=f"{name}_range", type=value_range, metavar="LO,HI",
-                           help=f"range of {name} (default {lo:g},{hi:g})")
+                           help=f"range of {name} (default {shown})")
 
 
-def limit_ranges_from_args(args: argparse.Namespace, defaults=None):
-    """The LimitRanges the --*-range options give (the rest from `defaults`)."""
+def limit_ranges_from_args(args: argparse.Namespace, defaults):
+    """The LimitRanges the --*-range options give (the rest, and the task, from `defaults`)."""
     import dataclasses
 
-    from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
+    from judgeopt.planners.limits import CONDITION_NAMES
 
     given = {k: getattr(args, f"{k}_range") for k in CONDITION_NAMES if getattr(args, f"{k}_range") is not None}
-    return dataclasses.replace(defaults or LimitRanges(), **given)
+    return dataclasses.replace(defaults, **given)
 
 
 def cmd_fit_trust_region(args) -> int:

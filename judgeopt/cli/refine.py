@@ -16,12 +16,12 @@ if TYPE_CHECKING:
 def cmd_refine(args: argparse.Namespace) -> int:
     from judgeopt.files import atomic_write, save_figure
     from judgeopt.cli.planners import limit_ranges_from_args, problem_from_args
-    from judgeopt.planners.limits import WIDE_LIMITS
+    from judgeopt.planners.limits import wide_limits
     from judgeopt.files import resolve
     from judgeopt.refine.loop import RefineConfig, install, refine
 
     problem = problem_from_args(args)
-    ranges = limit_ranges_from_args(args, WIDE_LIMITS) if args.sample_limits else None
+    ranges = limit_ranges_from_args(args, wide_limits(problem.task)) if args.sample_limits else None
     if ranges is not None:
         ranges.check(problem)
     cfg = RefineConfig(rounds=args.rounds, n=args.n, methods=tuple(args.methods), seed=args.seed,
@@ -54,7 +54,7 @@ def cmd_refine(args: argparse.Namespace) -> int:
     print(md)
     print(f"wrote {out / 'refine.md'}, {out / 'refine.csv'}, {out / 'refine.png'}")
     if args.install:
-        for p in install(out, args.install, resolve("models"), last=args.rounds):
+        for p in install(out, args.install, resolve("models"), last=args.rounds, overwrite=args.overwrite):
             print(f"installed {p}")
     return 0
 
@@ -97,9 +97,8 @@ def plot(figures: list[dict]) -> Figure:
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:
-    from judgeopt.cli.common import QUIET, jobs_option, out_option, positive, seed_option
+    from judgeopt.cli.common import OVERWRITE, QUIET, jobs_option, out_option, positive, seed_option
     from judgeopt.cli.planners import add_limit_range_arguments, add_problem_arguments
-    from judgeopt.planners.limits import WIDE_LIMITS
 
     r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",
                        description="Each round plans for --n fresh environments with the current judge, replays "
@@ -107,7 +106,7 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
                        "judge (and with --generator-epochs the generator). Parallel like collection; a rerun "
                        "resumes. Models go to --out; models/ changes only with --install NAME.",
                        parents=[out_option("DIR", "folder for every round's plans, outcomes and models (a rerun "
-                                           "resumes it)", default="out/refine"), seed_option(), jobs_option(), QUIET])
+                                           "resumes it)", default="out/refine"), OVERWRITE, seed_option(), jobs_option(), QUIET])
     add_problem_arguments(r)
     r.add_argument("--rounds", type=positive, default=3, help="rounds of plan, replay, fine-tune")
     r.add_argument("--n", type=int, default=150, help="environments per round")
@@ -121,7 +120,8 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     r.add_argument("--generator-epochs", type=int, default=0, help="fine-tuning steps of the generator per round")
     r.add_argument("--chunk", type=positive, default=5, help="environments per work unit (and per resume step)")
     r.add_argument("--install", metavar="NAME", help="copy round --rounds' models to models/judge_NAME (and "
-                   "generator_NAME)")
+                   "generator_NAME; NAME may name a subfolder: scrape/refined is models/scrape/judge_refined); an "
+                   "installed model is replaced only with --overwrite")
     robot = r.add_argument_group("with a robot", "run the rounds on a robot instead of the simulator "
                                  "(docs/remedies.md): the same environments, limits, models and training")
     robot.add_argument("--plans-only", action="store_true", help="write the next round's plans for execution "
@@ -134,5 +134,5 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
                              "from ranges (uniform), so the judge learns which limits make the task impossible; "
                              "the generator (with --generator-epochs) becomes a conditioned one over these ranges")
     g.add_argument("--sample-limits", action="store_true", help="sample the limits per environment")
-    add_limit_range_arguments(g, WIDE_LIMITS)
+    add_limit_range_arguments(g)
     r.set_defaults(func=cmd_refine)

@@ -184,6 +184,18 @@ def load_calibration(path: str | Path) -> dict[str, Calibrator]:
     return out
 
 
+def inputs(limits: dict[str, Any], env: dict[str, float]) -> dict[str, float]:
+    """A plan's limits and environment as a calibrator reads them: a per-axis limit (a task with
+    several position axes) becomes one input per axis, `q_min[0]`, `q_min[1]`."""
+    out: dict[str, float] = {}
+    for k, v in limits.items():
+        if isinstance(v, (list, tuple, np.ndarray)):
+            out.update({f"{k}[{i}]": float(x) for i, x in enumerate(v)})
+        else:
+            out[k] = float(v)
+    return {**out, **env}
+
+
 def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str | None) -> Calibrator | None:
     """The calibrator for this exact setting, else one fitted over limits for its family."""
     return calibrators.get(setting or "") or calibrators.get(family or "")
@@ -197,7 +209,7 @@ def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_nam
         cal = lookup(calibrators, r.get("setting"), r.get("family"))
         if cal is None or r.get("predicted_success") is None:
             continue
-        values = {**r.get("limits", {}), **r["environment"]}
+        values = inputs(r.get("limits", {}), r["environment"])
         r.update(cal.annotate(values, r["predicted_success"]))
         r["calibration_fitted_on_env"] = env_fingerprint([values[k] for k in cal.env_names]) in seen[cal.setting]
 
@@ -208,7 +220,6 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
     one per family of settings that differ only in their limits (rows of a sweep, or of
     evaluations under many limits), with the limits as inputs beside the environment."""
     key = "family" if over_limits else "setting"
-    names = list(env_names) + (list(LIMIT_NAMES) if over_limits else [])
     by: dict[str, list[dict]] = {}
     for r in rows:
         if r.get(key) and r.get("predicted_success") is not None and r.get("simulated_success") is not None:
@@ -217,7 +228,8 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
     for setting, rs in by.items():
         if len(rs) < min_n:
             continue
-        values = np.array([[{**r.get("limits", {}), **r["environment"]}[k] for k in names] for r in rs])
+        names = list(env_names) + ([k for k in inputs(rs[0].get("limits", {}), {})] if over_limits else [])
+        values = np.array([[inputs(r.get("limits", {}), r["environment"])[k] for k in names] for r in rs])
         description = descriptions.get(rs[0]["setting"], rs[0]["method"])
         if over_limits:  # the family's description: without the first row's limits
             description = re.sub(r"[,;] q̇_max [^,]*, f in \[[^\]]*\]", "", description) + ", over limits"

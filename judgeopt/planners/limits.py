@@ -26,6 +26,7 @@ class LimitRanges:
     qdot_max: tuple[float, float] = (0.25, 1.0)
     f_min: tuple[float, float] = (5.0, 10.0)
     f_max: tuple[float, float] = (15.0, 25.0)
+    task: str = DEFAULT_TASK  # whose demonstrations bound the ranges
 
     def __post_init__(self) -> None:
         for name in CONDITION_NAMES:
@@ -36,7 +37,7 @@ class LimitRanges:
         if not self.f_min[1] < self.f_max[0]:
             raise ProblemError(f"f_min range {list(self.f_min)} must lie below the f_max range {list(self.f_max)} "
                                "(every sampled f_min < f_max)")
-        task = get_task(DEFAULT_TASK)
+        task = get_task(self.task)
         speed, force = task.demonstrated_bound("velocity")[1], task.demonstrated_bound("force")
         for name, (lo, hi) in (("qdot_max", (0.0, speed)), ("f_min", force), ("f_max", force)):
             v = getattr(self, name)
@@ -44,12 +45,14 @@ class LimitRanges:
                 raise ProblemError(f"{name} range {list(v)} leaves [{lo:g}, {hi:g}], what the demonstrations cover "
                                    "(the judge has seen nothing beyond it); narrow the range")
 
-    def to_dict(self) -> dict[str, list[float]]:
-        return {k: list(getattr(self, k)) for k in CONDITION_NAMES}
+    def to_dict(self) -> dict:
+        """The ranges (and the task, where it is not the default one: older files stay as they were)."""
+        return {**{k: list(getattr(self, k)) for k in CONDITION_NAMES},
+                **({"task": self.task} if self.task != DEFAULT_TASK else {})}
 
     @classmethod
     def from_dict(cls, d: dict) -> "LimitRanges":
-        return cls(**{k: tuple(d[k]) for k in CONDITION_NAMES})
+        return cls(**{k: tuple(d[k]) for k in CONDITION_NAMES}, task=d.get("task", DEFAULT_TASK))
 
     def array(self) -> np.ndarray:
         """(3, 2): [lo, hi] per limit in CONDITION_NAMES order."""
@@ -64,24 +67,39 @@ class LimitRanges:
 
     def check(self, problem: Problem) -> None:
         """Every limit in the ranges must fit the problem's other limits and reach every terminal
-        position of its environment ranges (else training would chase infeasible plans)."""
-        lo_q, hi_q = self.qdot_max
-        if lo_q <= problem.qdot_min or lo_q < max(problem.qdot0, problem.qdot_end):
+        position of its environment ranges on every axis (else training would chase infeasible plans)."""
+        if problem.task != self.task:
+            raise ProblemError(f"limit ranges of task {self.task!r} for a problem of task {problem.task!r}")
+        lo_q = self.qdot_max[0]
+        if np.any(lo_q <= problem.vec("qdot_min")) or np.any(lo_q < np.maximum(problem.vec("qdot0"), problem.vec("qdot_end"))):
             raise ProblemError(f"qdot_max range {list(self.qdot_max)} must lie above qdot_min = {problem.qdot_min} "
                                f"and the start/terminal velocities")
         slow = problem.with_overrides(qdot_max=lo_q)
-        ends = ([problem.q_end] if not isinstance(problem.q_end, str)
-                else list(np.atleast_1d(problem.environment["y_obj"])))
-        reach = slow.reachable_range()
-        if max(ends) > reach[1] + 1e-12:
-            raise ProblemError(f"qdot_max = {lo_q} (the bottom of its range) cannot reach q_end = {max(ends)} m in "
-                               f"{problem.steps} steps (reach {reach[1]:.4g} m); raise the range's lower end")
+        lows, highs = ({k: np.min(v) for k, v in problem.environment.items()},
+                       {k: np.max(v) for k, v in problem.environment.items()})
+        ends = np.stack([problem.terminal_positions(lows), problem.terminal_positions(highs)])
+        for axis in range(problem.n_axes):
+            reach = slow.reachable_range(axis)
+            e = ends[:, axis][~np.isnan(ends[:, axis])]
+            if len(e) and (e.max() > reach[1] + 1e-12 or e.min() < reach[0] - 1e-12):
+                raise ProblemError(f"qdot_max = {lo_q} (the bottom of its range) cannot reach q_end = "
+                                   f"{e.max():.4g} m on axis {axis} in {problem.steps} steps (reach {reach[0]:.4g} to "
+                                   f"{reach[1]:.4g} m); raise the range's lower end")
+
+
+def wide_limits(task: str = DEFAULT_TASK) -> "LimitRanges":
+    """The task's wide limit ranges (`Task.wide_limits`): refinement's and the sweep's default draws."""
+    ranges = get_task(task).wide_limits
+    if ranges is None:
+        raise ProblemError(f"task {task!r} declares no wide limit ranges: give --qdot-max-range, --f-min-range and "
+                           "--f-max-range")
+    return LimitRanges(**ranges, task=task)
 
 
 #: limit ranges wider than any shipped problem, down to forces and speeds under which no scoop
 #: succeeds at high friction (q̇_max from what reaches y_obj = 0.28 m): refinement's default,
 #: the sweep's random limit sets, and the shipped refined conditioned generator's ranges
-WIDE_LIMITS = LimitRanges(qdot_max=(0.22, 1.2), f_min=(0.0, 10.0), f_max=(11.0, 30.0))
+WIDE_LIMITS = wide_limits(DEFAULT_TASK)
 
 
 def limits_of(problem: Problem) -> np.ndarray:

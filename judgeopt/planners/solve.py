@@ -208,6 +208,8 @@ class Planners:
     def solve(self, env: dict[str, float], simulator=None, guess=None) -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so).
         `guess`: the direct solve's warm start instead of the generator's plan."""
+        from judgeopt.planners.calibration import inputs as calibration_inputs
+
         env = self.problem.env_dict(env)
         infeasible = [infeasible_result(m, self.problem, env) for m in self.methods]
         if infeasible[0] is not None:
@@ -229,7 +231,7 @@ class Planners:
                           setting_description=self.descriptions[r.method])
             cal = self.calibrators.get(r.method)
             if cal is not None and r.predicted_success is not None:
-                r.info.update(cal.annotate({**limits, **env}, r.predicted_success))
+                r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
             assess(r)
         if simulator is not None:
             for r in results:

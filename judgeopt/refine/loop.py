@@ -31,7 +31,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
-from judgeopt.files import atomic_write
+from judgeopt.files import atomic_write, refuse_overwrite
 from judgeopt.parallel import run_chunks
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
@@ -296,9 +296,12 @@ def _fine_tune_generator(problem: Problem, judge: str, generator: str | None, ou
     return out
 
 
-def install(out: str | Path, name: str, models_dir: str | Path = "models", last: int | None = None) -> list[Path]:
-    """Copy the last finished round's (or round `last`'s) judge and generator into models/
-    under `name`: the only way refinement changes shipped models."""
+def install(out: str | Path, name: str, models_dir: str | Path = "models", last: int | None = None,
+            overwrite: bool = False) -> list[Path]:
+    """Copy the last finished round's (or round `last`'s) judge and generator into models/ as
+    judge_NAME and generator_NAME (NAME may name a subfolder: scrape/refined is
+    models/scrape/judge_refined): the only way refinement changes shipped models, and an
+    installed model is replaced only with `overwrite`."""
     rounds = sorted(Path(out).glob("round_*/summary.json"), key=lambda p: int(p.parent.name.split("_")[1]))
     rounds = [r for r in rounds if last is None or int(r.parent.name.split("_")[1]) <= last]
     if not rounds:
@@ -310,7 +313,9 @@ def install(out: str | Path, name: str, models_dir: str | Path = "models", last:
     for kind, src in (("judge", summary["judge"]), ("generator", summary["generator"])):
         if not src or Path(src).parent != rounds[-1].parent:  # only what refinement made (not a starting model)
             continue
-        pt, js = Path(models_dir) / f"{kind}_{name}.pt", Path(models_dir) / f"{kind}_{name}.json"
+        stem = Path(models_dir) / Path(name).parent / f"{kind}_{Path(name).name}"
+        pt, js = stem.with_suffix(".pt"), stem.with_suffix(".json")
+        refuse_overwrite([pt, js], overwrite, flag="--install NAME")
         meta = json.loads(Path(src + ".json").read_text())
         meta.update(weights_file=pt.name, installed_from=src)
         atomic_write(pt, Path(src + ".pt").read_bytes())

@@ -105,6 +105,9 @@ class Task(ABC):
     default_judge: str = ""
     #: the grid of environments demonstrations are collected on with `collect --per-env` (optional)
     demo_grid: dict[str, tuple[float, ...]] | None = None
+    #: ranges of q̇_max, f_min and f_max (lo, hi) wider than any shipped problem, down to limits
+    #: under which the task fails: what refinement and the sweep draw limits from (optional)
+    wide_limits: dict[str, tuple[float, float]] | None = None
 
     # -- names -----------------------------------------------------------------------------
     @property

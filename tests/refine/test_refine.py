@@ -47,6 +47,13 @@ def test_one_round_aggregates_fine_tunes_resumes_and_installs(tmp_path):
     from judgeopt.judge.store import load_judge
 
     load_judge(tmp_path / "models" / "judge_refined")  # the hash still matches after the copy
+    from judgeopt.files import OverwriteError
+
+    with pytest.raises(OverwriteError, match="judge_refined.pt exists"):  # an installed model is never lost
+        install(tmp_path / "out", "refined", tmp_path / "models")
+    assert install(tmp_path / "out", "refined", tmp_path / "models", overwrite=True) == files
+    sub = install(tmp_path / "out", "scrape/refined", tmp_path / "models")  # a task's own folder
+    assert sub[0] == tmp_path / "models" / "scrape" / "judge_refined.pt"
 
 
 def test_generator_fine_tuning_starts_from_a_copy():

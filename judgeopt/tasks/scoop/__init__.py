@@ -51,6 +51,8 @@ class ScoopTask(Task):
     # fine-tuned on the planners' replayed outcomes (docs/remedies.md); the paper's judge,
     # trained on demonstrations only, is models/judge_default
     default_judge = "models/judge_refined"
+    # q̇_max from what reaches y_obj = 0.28 m; below f_max ~ 15 N no scoop succeeds at high friction
+    wide_limits = {"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)}
 
     def terminal(self, env: Mapping[str, float]) -> dict[str, float]:
         return {"y": float(env["y_obj"])}
