@@ -111,3 +111,11 @@ def test_inspect_reads_every_kind_of_file(tmp_path, capsys):
     other.write_text('{"format": "something-else"}')
     assert main(["inspect", str(other)]) == ExitCode.BAD_INPUT
     assert "not a file judgeopt writes" in capsys.readouterr().err
+
+
+def test_a_missing_optional_dependency_names_its_extra(tmp_path):
+    code = ("import sys; sys.modules['pybullet'] = None\n"
+            "from judgeopt.cli import main; sys.exit(main(['solve', '--qdot-max', '0.4', '--method', 'amortized']))")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=tmp_path)
+    assert r.returncode == ExitCode.MISSING
+    assert "pip install 'judgeopt[sim]'" in r.stderr and "Traceback" not in r.stderr
