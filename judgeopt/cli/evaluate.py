@@ -90,6 +90,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.files import resolve
 
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
+    if args.judge:  # every planner against this judge (its calibration applies only where it has one)
+        problem = problem.with_overrides(judge=args.judge)
     vary = _vary(problem, args.vary) if args.vary else None
     if args.random_limits:
         ranges = limit_ranges_from_args(args, wide_limits(problem.task))

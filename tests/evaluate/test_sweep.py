@@ -120,3 +120,11 @@ def test_sweep_end_to_end_with_an_unreachable_set(tmp_path, capsys):
     chunks = sorted((tmp_path / "partial").glob("*.json"))
     assert chunks and main(argv) == 0  # a rerun plans nothing again
     assert sorted((tmp_path / "partial").glob("*.json")) == chunks
+
+
+def test_sweep_plans_against_the_judge_given(tmp_path, capsys):
+    """--judge replaces the problem's judge in every row (here a set no plan can meet: nothing is solved)."""
+    argv = ["evaluate", "sweep", "--n", "1", "--limits", "qdot_max=0.05", "--judge", "models/judge_default",
+            "--no-baselines", "--methods", "direct", "--jobs", "1", "--quiet", "--out", str(tmp_path)]
+    assert main(argv) == 0
+    assert "judge models/judge_default)" in (tmp_path / "sweep.md").read_text()
