@@ -1,5 +1,5 @@
 # Every target sets up .venv first (scripts/setup.sh: idempotent, quick when already done).
-.PHONY: setup run test bench data generators scrape
+.PHONY: setup run test bench data generators scrape scrape-trust
 BIN := .venv/bin
 
 setup:
@@ -41,3 +41,20 @@ scrape: setup
 	$(BIN)/judgeopt train-generator --problem problems/scrape_slow.toml --out models/scrape/generator_slow --overwrite
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 100 --out docs/results/scrape
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape_slow.toml --n 100 --out docs/results/scrape_slow
+	$(MAKE) scrape-trust
+
+# the scrape's judge refined over its limit space (4 rounds of the direct solve, then 2 with the generator conditioned
+# on the limits as well), and its calibration over limits; then held-out limits and environments (docs/remedies.md;
+# about 45 min on 2 cores, every step resumable)
+SCRAPE_REFINE := --problem problems/scrape.toml --judge models/scrape/judge --sample-limits --n 200 --weight 8 --judge-epochs 3 --seed 1 --train data/scrape/train.h5 --test data/scrape/test.h5 --out out/refine_scrape
+scrape-trust: setup
+	$(BIN)/judgeopt refine $(SCRAPE_REFINE) --rounds 4 --install scrape/refined --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/scrape.toml --judge models/scrape/judge_refined --conditioned --epochs 3000 --threads 2 --out models/scrape/generator_conditioned --overwrite
+	$(BIN)/judgeopt refine $(SCRAPE_REFINE) --rounds 6 --methods direct amortized --generator models/scrape/generator_conditioned --generator-epochs 1000 --install scrape/refined --overwrite
+	rm -f models/scrape/generator_conditioned.*
+	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 24 --n 25 --seed 5 --no-baselines --out out/sweep_scrape_fit
+	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 50 --seed 5 --out out/planners_scrape_fit
+	$(BIN)/judgeopt calibrate out/sweep_scrape_fit out/planners_scrape_fit --over-limits --replace --out models/scrape/calibration.json
+	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 12 --n 25 --seed 6 --no-baselines --out docs/results/sweep_scrape
+	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 100 --seed 0 --out docs/results/scrape_refined
+	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --judge models/scrape/judge --random-limits 12 --n 25 --seed 6 --no-baselines --methods direct cem --out docs/results/sweep_scrape_demojudge

@@ -225,7 +225,8 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
             rows = [r for f in sorted((folder / "partial").glob("*.json")) for r in json.loads(f.read_text())]
             now = {f["method"]: f for f in _round_figures(rows, k)} if rows else {}  # columns added since
             figures += [{**now.get(f["method"], {}), **f} for f in summary["figures"]]
-            judge, generator = summary["judge"], summary["generator"]
+            # a generator given now joins rounds that ran without one (e.g. more rounds, with --methods amortized)
+            judge, generator = summary["judge"], summary["generator"] or generator
             continue
         manifest = folder / "plans" / MANIFEST
         skipped: list[str] = []
