@@ -44,8 +44,8 @@ scrape: setup
 	$(MAKE) scrape-trust
 
 # the scrape's judge refined over its limit space (4 rounds of the direct solve, then 2 with the generator conditioned
-# on the limits as well), and its calibration over limits; then held-out limits and environments (docs/remedies.md;
-# about 45 min on 2 cores, every step resumable)
+# on the limits as well); a calibration over limits fitted for comparison (not shipped); held-out limits and
+# environments (docs/remedies.md; about 50 min on 2 cores, every step resumable)
 SCRAPE_REFINE := --problem problems/scrape.toml --judge models/scrape/judge --sample-limits --n 200 --weight 8 --judge-epochs 3 --seed 1 --train data/scrape/train.h5 --test data/scrape/test.h5 --out out/refine_scrape
 scrape-trust: setup
 	$(BIN)/judgeopt refine $(SCRAPE_REFINE) --rounds 4 --install scrape/refined --overwrite
@@ -54,7 +54,8 @@ scrape-trust: setup
 	rm -f models/scrape/generator_conditioned.*
 	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 24 --n 25 --seed 5 --no-baselines --out out/sweep_scrape_fit
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 50 --seed 5 --out out/planners_scrape_fit
-	$(BIN)/judgeopt calibrate out/sweep_scrape_fit out/planners_scrape_fit --over-limits --replace --out models/scrape/calibration.json
+	$(BIN)/judgeopt calibrate out/sweep_scrape_fit out/planners_scrape_fit --over-limits --replace --out out/scrape_calibration.json
 	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 12 --n 25 --seed 6 --no-baselines --out docs/results/sweep_scrape
+	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 12 --n 25 --seed 6 --no-baselines --calibration out/scrape_calibration.json --out docs/results/sweep_scrape_calibrated
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 100 --seed 0 --out docs/results/scrape_refined
 	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --judge models/scrape/judge --random-limits 12 --n 25 --seed 6 --no-baselines --methods direct cem --out docs/results/sweep_scrape_demojudge

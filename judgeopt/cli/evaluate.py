@@ -184,7 +184,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                 raise CalibrationError(f"{f}: not valid JSON (a damaged chunk: delete it and rerun the evaluation "
                                        "to redo it)") from None
         sources.append(str(folder))
-    with_setting = [r for r in rows if r.get("setting")]
+    with_setting = [r for r in rows if r.get("setting") and (not args.methods or r.get("method") in args.methods)]
+    if not with_setting and args.methods:
+        raise CalibrationError(f"{args.folders}: no evaluated plans of {', '.join(args.methods)}")
     if not with_setting:
         raise CalibrationError(f"{args.folders}: these plans carry no planner setting (made before calibration "
                                "existed); rerun the evaluation")
@@ -260,6 +262,9 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "are kept unless --replace (the shipped one is models/calibration_default.json)")
     c.add_argument("--min-n", type=positive, default=50, help="fewest outcomes a setting needs")
     c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
+    c.add_argument("--methods", nargs="+", choices=("amortized", "direct", "cem"),
+                   help="fit only these planners' settings (default: every planner in the folders); a planner left "
+                   "out reports the judge's own probability")
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "
                    "limits in the folders (a sweep's), with q̇ and force limits as inputs beside the environment: it "
                    "then also covers limits between those it saw")

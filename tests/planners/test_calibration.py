@@ -102,6 +102,10 @@ def test_calibrate_cli_fits_from_evaluation_folders_and_keeps_other_settings(tmp
     assert set(load_calibration(out)) == {"s1"}
     assert main(["calibrate", str(tmp_path / "nothing"), "--out", str(out)]) == 5  # ExitCode.BAD_INPUT: a folder without evaluated plans
     assert "no evaluated plans" in capsys.readouterr().err
+    assert main(["calibrate", str(tmp_path / "ev"), "--out", str(out), "--replace", "--methods", "cem"]) == 5
+    assert "no evaluated plans of cem" in capsys.readouterr().err  # the rows are the direct solve's
+    assert main(["calibrate", str(tmp_path / "ev"), "--out", str(out), "--replace", "--methods", "direct"]) == 0
+    assert set(load_calibration(out)) == {"s1"}
 
 
 def test_planners_report_calibrated_success_for_their_setting(tmp_path):
