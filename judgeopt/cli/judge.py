@@ -15,18 +15,11 @@ from typing import Any
 
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, names, out_option, positive,
                                  seed_option, threads_option)
-from judgeopt.files import refuse_overwrite
+from judgeopt.files import refuse_overwrite, resolve
 
 from judgeopt.tasks import DEFAULT_TASK, get_task
 
 DEFAULT_MODEL = get_task(DEFAULT_TASK).default_judge
-
-
-def resolve_model(path: str | os.PathLike) -> Path:
-    """A model path as given, else a shipped model (`models/NAME`), from any folder."""
-    from judgeopt.files import resolve
-
-    return resolve(path, (".json",))
 
 
 # -- train-judge -----------------------------------------------------------------------------
@@ -119,7 +112,7 @@ def cmd_test_judge(args: argparse.Namespace) -> int:
     if args.threads:
         import torch
         torch.set_num_threads(args.threads)
-    model_path = resolve_model(args.judge)
+    model_path = resolve(args.judge, (".json",))
     model, meta = load_judge(model_path)
     ds = load(args.data)
     t0 = time.perf_counter()
@@ -153,27 +146,11 @@ def _json_safe(v: Any) -> Any:
 
 
 # -- inspect ---------------------------------------------------------------------------------
-def is_model_path(path: str | os.PathLike) -> bool:
-    """True for `x.pt`, `x.json` or `x` when `x.json` is a saved judge's metadata."""
-    from judgeopt.judge.store import model_paths
-
-    p = Path(path)
-    if p.suffix == ".pt":
-        return True
-    js = model_paths(p)[1]
-    if not js.exists():
-        return False
-    try:
-        return json.loads(js.read_text()).get("format") == "judgeopt-judge"
-    except (OSError, ValueError, AttributeError):
-        return False
-
-
 def inspect_model(path: str | os.PathLike) -> dict[str, Any]:
     """A saved judge's metadata, validated by loading the weights too."""
     from judgeopt.judge.store import load_judge
 
-    model, meta = load_judge(resolve_model(path))
+    model, meta = load_judge(resolve(path, (".json",)))
     n_params = sum(p.numel() for p in model.parameters())
     metrics = meta.get("metrics", {})
     return {
@@ -252,7 +229,6 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
 
 
 def cmd_train_ensemble(args) -> int:
-    from judgeopt.files import resolve
     from judgeopt.judge.ensemble import EnsembleConfig, train_ensemble
 
     refuse_overwrite([Path(args.out) / "ensemble.json"], args.overwrite)  # unfinished members resume

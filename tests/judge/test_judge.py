@@ -324,7 +324,8 @@ def test_default_size_judge_at_horizon_30(backend, tmp_path):
 # -- command line ----------------------------------------------------------------------------
 def test_cli_train_test_inspect(tmp_path, capsys):
     from judgeopt.cli import main
-    from judgeopt.cli.judge import inspect_model, is_model_path
+    from judgeopt.cli.inspect import kind_of
+    from judgeopt.cli.judge import inspect_model
     train, test = tmp_path / "train.h5", tmp_path / "test.h5"
     save(synthetic(200, seed=1), train)
     save(synthetic(100, seed=2), test)
@@ -346,7 +347,7 @@ def test_cli_train_test_inspect(tmp_path, capsys):
     assert "confusion matrix" in capsys.readouterr().out
     info = inspect_model(out)
     assert info["config"]["lstm_units"] == 8 and info["parameters"] > 0
-    assert is_model_path(out) and is_model_path(str(out) + ".json") and not is_model_path(train)
+    assert [kind_of(p)[0] for p in (out, str(out) + ".json", str(out) + ".pt", train)] == ["judge"] * 3 + ["dataset"]
 
 
 def test_cli_errors_are_clear(tmp_path, capsys):
