@@ -16,7 +16,7 @@ from typing import Any, Callable
 from judgeopt.cli.common import JSON, CLIError, ExitCode
 
 KINDS = "datasets (.h5), judges and generators (STEM, STEM.json or STEM.pt), ensembles (folder), calibrations, " \
-        "trust regions and plans (.json), evaluation folders (with partial/)"
+        "trust regions and plans (.json), exported plans for ROS 2 (.mcap), evaluation folders (with partial/)"
 
 
 def _format_of(path: Path) -> str | None:
@@ -41,9 +41,12 @@ def kind_of(path: str | Path) -> tuple[str, Path]:
                        f"inspect reads {KINDS}", ExitCode.BAD_INPUT)
     if p.suffix.lower() in (".h5", ".hdf5"):
         return "dataset", p
+    if p.suffix.lower() == ".mcap" and p.is_file():
+        return "ros bag", p
     js = p.with_suffix(".json") if p.suffix == ".pt" else p if p.suffix == ".json" else p.with_name(p.name + ".json")
     if not js.exists():
-        raise CLIError(f"{path}: no such file; inspect reads {KINDS}", ExitCode.BAD_INPUT)
+        what = "a file inspect does not read" if p.is_file() else "no such file"
+        raise CLIError(f"{path}: {what}; inspect reads {KINDS}", ExitCode.BAD_INPUT)
     fmt = _format_of(js)
     kinds = {"judgeopt-judge": "judge", "judgeopt-generator": "generator", "judgeopt-judge-ensemble": "ensemble",
              "judgeopt-calibration": "calibration", "judgeopt-trust-region": "trust region"}
@@ -119,6 +122,12 @@ def _plan(p: Path) -> dict[str, Any]:
             "provenance": {k: rec.get("provenance", {}).get(k) for k in ("command", "git_commit", "created")}}
 
 
+def _ros_bag(p: Path) -> dict[str, Any]:
+    from judgeopt.planners.ros import summarize_mcap
+
+    return {"path": str(p), **summarize_mcap(p)}
+
+
 def _evaluation(p: Path) -> dict[str, Any]:
     rows: list[dict] = []
     bad = []
@@ -142,7 +151,7 @@ def _evaluation(p: Path) -> dict[str, Any]:
 
 READERS: dict[str, Callable[[Path], dict[str, Any]]] = {
     "dataset": _dataset, "judge": _judge, "generator": _generator, "ensemble": _ensemble, "calibration": _calibration,
-    "trust region": _trust_region, "plan": _plan, "evaluation": _evaluation}
+    "trust region": _trust_region, "plan": _plan, "ros bag": _ros_bag, "evaluation": _evaluation}
 
 
 def inspect(path: str | Path) -> dict[str, Any]:

@@ -107,3 +107,26 @@ def write_mcap(plan: Plan, frame: TaskFrame, path: str | Path, info: dict[str, A
         shutil.rmtree(tmp, ignore_errors=True)
     return path
 
+
+
+def summarize_mcap(path: str | Path) -> dict[str, Any]:
+    """What an MCAP file holds, read back with rosbags: each topic's type and message count, the
+    time span, and the plan information judgeopt wrote on /judgeopt/plan_info (when it did)."""
+    try:
+        from rosbags.highlevel import AnyReader
+    except ImportError:
+        raise ModuleNotFoundError(f"reading MCAP needs the ros extra: {EXTRA}", name="rosbags") from None
+    path = Path(path)
+    try:
+        with AnyReader([path]) as reader:
+            topics = {c.topic: {"type": c.msgtype, "messages": c.msgcount} for c in reader.connections}
+            info = None
+            for conn, _, raw in reader.messages([c for c in reader.connections if c.topic == TOPICS["info"]]):
+                info = json.loads(reader.deserialize(raw, conn.msgtype).data)
+                break
+            span = (reader.end_time - reader.start_time) / 1e9 if topics else 0.0
+    except Exception as exc:  # rosbags' own errors (not MCAP, damaged) as one line
+        raise RosExportError(f"{path}: not a readable MCAP file ({type(exc).__name__}: {exc})") from None
+    return {"topics": topics, "duration_s": round(span, 6),
+            "plan": None if info is None else {k: info.get(k) for k in ("method", "environment", "verdict", "frame",
+                                                                        "channels", "step")}}

@@ -93,20 +93,29 @@ def test_env_option_is_the_named_shortcut(capsys):
 
 def test_inspect_reads_every_kind_of_file(tmp_path, capsys):
     plan = tmp_path / "plan.json"
-    assert main(["solve", "--no-simulate", "--method", "amortized", "--save-json", str(plan), "--quiet"]) == 0
+    bag = tmp_path / "plan.mcap"
+    assert main(["solve", "--no-simulate", "--method", "amortized", "--save-json", str(plan), "--export", str(bag),
+                 "--quiet"]) == 0
     evaluation = tmp_path / "evaluation"
     (evaluation / "partial").mkdir(parents=True)
     rows = [{"method": "direct", "setting_description": "direct, judge j", "simulated_success": s} for s in (1, 0, 1)]
     (evaluation / "partial" / "a.json").write_text(json.dumps(rows))
     expected = {"data/test.h5": "dataset", "models/judge_default": "judge", "models/generator_paper_sim.pt": "generator",
                 "models/judge_ensemble": "ensemble", "models/calibration_default.json": "calibration",
-                "models/trust_region_default.json": "trust region", str(plan): "plan", str(evaluation): "evaluation"}
+                "models/trust_region_default.json": "trust region", str(plan): "plan", str(bag): "ros bag",
+                str(evaluation): "evaluation"}
     capsys.readouterr()
     for path, kind in expected.items():
         assert main(["inspect", path, "--json"]) == 0, path
         info = json.loads(capsys.readouterr().out)
         assert info["kind"] == kind, path
     assert info["settings"][0]["plans"] == 3 and info["settings"][0]["successes"] == 2
+    assert main(["inspect", str(bag), "--json"]) == 0
+    topics = json.loads(capsys.readouterr().out)["topics"]
+    assert topics["/judgeopt/pose"]["messages"] == 1501 and topics["/judgeopt/plan_info"]["messages"] == 1
+    (tmp_path / "notes.txt").write_text("hello")
+    assert main(["inspect", str(tmp_path / "notes.txt")]) == ExitCode.BAD_INPUT
+    assert "a file inspect does not read" in capsys.readouterr().err
     other = tmp_path / "other.json"
     other.write_text('{"format": "something-else"}')
     assert main(["inspect", str(other)]) == ExitCode.BAD_INPUT
