@@ -82,6 +82,9 @@ class ArmDriver:
         orn = pb.getDynamicsInfo(body.robot, body.ft_joint, physicsClientId=body.client)[4]
         self.sensor_rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
         self._sensor_valid = False
+        #: the force sensor's errors: None (exact), or a callable from the true force in the sensor
+        #: frame to the reading (bias and noise; the tasks' perturbations set it)
+        self.sensor_model = None
 
     def joints_for(self, target: pin.SE3, start: np.ndarray = HOME_POSTURE) -> np.ndarray:
         """Joint angles placing the TCP at `target` (wrapped to [-pi, pi))."""
@@ -103,7 +106,8 @@ class ArmDriver:
             self._sensor_valid = True
             return q, None
         ft = pb.getJointState(b.robot, b.ft_joint, physicsClientId=b.client)[2]
-        return q, self.sensor_rotation @ np.array(ft[:3])
+        force = self.sensor_rotation @ np.array(ft[:3])
+        return q, force if self.sensor_model is None else self.sensor_model(force)
 
     def step(self, cmd: TaskCommand) -> None:
         """Read the sensors, compute the torques, step the physics."""
