@@ -7,12 +7,14 @@ Phases of one rollout (1 ms steps):
 3. lift: pure position control; the spatula rises `lift_height` and tilts its blade back
    by `lift_tilt_deg` (as a cook levels the spatula), then holds still.
 
-Success criterion: at the end of the hold the object's centre has risen at least
-`success_rise` above its start height, it touches the blade and not the plate, and its
-centre lies within `max_overhang` of the blade centre along the blade, i.e. it came up with
-the spatula resting on the blade, not hanging off its edge. A pushed object stays on the
-plate (no rise), one flicked over the blade falls back, one caught on the edge overhangs:
-all fail.
+Success criterion (`success_test = "clear"`, since 2026-11-23): at the end of the hold the
+object is clear of the plate (its lowest point at least `success_clearance` above the plate's
+surface), it touches the blade and not the plate, and its centre lies within `max_overhang` of
+the blade centre, i.e. it came up with the spatula resting on the blade, not hanging off its
+edge. A pushed object stays on the plate, one flicked over the blade falls back, one caught on
+the edge overhangs: all fail. The test before (`success_test = "rise"`, every shipped dataset)
+asked the object's centre to rise `success_rise` above its start height instead of clearing
+the plate: on a softer mat the blade sinks deeper and a carried object rose less than that.
 """
 
 from __future__ import annotations
@@ -44,8 +46,10 @@ class RolloutConfig:
     lift_tilt_deg: float = 12.0
     lift_time: float = 0.25
     hold_time: float = 0.15
-    success_rise: float = 0.025
+    success_rise: float = 0.025  # success_test "rise": the object's centre rose this much from its start
     max_overhang: float = 0.035  # the object's centre at most this far from the blade centre
+    success_test: str = "clear"  # "clear" (of the plate, on the blade) or "rise" (before 2026-11-23)
+    success_clearance: float = 0.005  # success_test "clear": the object's lowest point this far above the plate
 
 
 @dataclass
@@ -191,8 +195,15 @@ class Simulator(TaskSimulator):
         on_blade = sc.contacts(sc.blade_top) > 0
         on_plate = sc.touches_plate()
         offset = float(np.linalg.norm(obj_end[:2] - ctl.position[:2]))
-        success = rise >= cfg.success_rise and on_blade and not on_plate and offset <= cfg.max_overhang
-        info = {"on_blade": on_blade, "on_plate": on_plate, "object_end": obj_end.tolist(), "offset_from_blade": offset}
+        bottom = sc.object_lowest_point()
+        held = on_blade and not on_plate and offset <= cfg.max_overhang
+        passed = {"rise": rise >= cfg.success_rise, "clear": bottom >= cfg.success_clearance}
+        if cfg.success_test not in passed:
+            raise ValueError(f"success_test = {cfg.success_test!r}; choose one of {', '.join(passed)}")
+        success = held and passed[cfg.success_test]
+        info = {"on_blade": on_blade, "on_plate": on_plate, "object_end": obj_end.tolist(), "offset_from_blade": offset,
+                "object_ahead": float(obj_end[1] - ctl.position[1]), "object_bottom": bottom,
+                **{f"success_{k}_test": bool(held and v) for k, v in passed.items()}}
         if record:
             info["frames"] = frames
         return RolloutResult(resp[:, 0], resp[:, 1], resp[:, 2], bool(success), rise,

@@ -140,6 +140,12 @@ class Scene:
         p, q = pb.getBasePositionAndOrientation(self.obj, physicsClientId=self.client)
         return np.array(p), np.array(q)
 
+    def object_lowest_point(self) -> float:
+        """Height of the object's lowest point above the plate's surface (z = 0) now."""
+        p, q = pb.getBasePositionAndOrientation(self.obj, physicsClientId=self.client)
+        R = np.array(pb.getMatrixFromQuaternion(q)).reshape(3, 3)
+        return float(np.min(np.asarray(self.config.pancake.hull_vertices()) @ R[2]) + p[2])
+
     def contacts(self, link: int) -> int:
         return len(pb.getContactPoints(self.robot, self.obj, link, -1, physicsClientId=self.client))
 
