@@ -11,9 +11,10 @@ import importlib
 from importlib.metadata import entry_points
 from typing import Callable
 
-from judgeopt.tasks.base import Channel, EnvironmentRangeError, EnvVar, Outcome, Task, TaskError, TaskSimulator
+from judgeopt.tasks.base import (Channel, EnvironmentRangeError, EnvVar, Outcome, Perturbation, Task, TaskError,
+                                 TaskSimulator)
 
-__all__ = ["BUILTIN", "Channel", "EnvVar", "EnvironmentRangeError", "Outcome", "Task", "TaskError",
+__all__ = ["BUILTIN", "Channel", "EnvVar", "EnvironmentRangeError", "Outcome", "Perturbation", "Task", "TaskError",
            "TaskSimulator", "get_task", "register_task", "task_names"]
 
 #: name -> "module:class"

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -41,6 +41,48 @@ class EnvVar:
         lo, hi = self.physical
         if not (lo <= self.sampled[0] <= self.sampled[1] <= hi):
             raise TaskError(f"environment variable {self.name!r}: sampled range {self.sampled} not within {self.physical}")
+
+
+@dataclass(frozen=True)
+class Perturbation:
+    """A way the world may differ from the one a plan was made for, unseen by the planner: a
+    misestimated environment value, or a scene parameter the environment vector does not name
+    (the object's mass, the mat's stiffness, the controller's gains, the force sensor's bias).
+
+    `value` is a factor of the nominal (`unit` "x", nominal 1) or an offset from it (nominal 0);
+    `physical` is what the task's simulator accepts (a randomisation range must lie in it);
+    `values` are the ones `judgeopt evaluate robustness` replays by default. The same names are
+    what `judgeopt collect --randomize NAME=LO,HI` draws per demonstration."""
+
+    name: str
+    unit: str
+    physical: tuple[float, float]
+    values: tuple[float, ...]
+    description: str = ""
+    nominal: float = 0.0
+    #: the environment variable this one misestimates (the plan is made for the told value, the
+    #: world has the told value times or plus this one); empty: a parameter of the scene
+    env: str = ""
+
+    def __post_init__(self) -> None:
+        lo, hi = self.physical
+        if self.unit == "x" and self.nominal != 1.0:
+            raise TaskError(f"perturbation {self.name!r}: a factor (unit 'x') is nominal at 1")
+        if not (lo <= self.nominal <= hi) or not all(lo <= v <= hi for v in self.values):
+            raise TaskError(f"perturbation {self.name!r}: nominal {self.nominal} and values {self.values} must lie in "
+                            f"its physical range {self.physical}")
+
+    def label(self, value: float) -> str:
+        """`mass_factor x2`, `y_obj_offset +0.03 m`."""
+        if self.unit == "x":
+            return f"{self.name} x{value:g}"
+        if not self.unit:
+            return f"{self.name} {value:g}"
+        return f"{self.name} {value:+g} {self.unit}"
+
+    def apply(self, told: float, value: float) -> float:
+        """The true value of a misestimated environment variable told `told`."""
+        return told * value if self.unit == "x" else told + value
 
 
 @dataclass
@@ -86,6 +128,16 @@ def with_setting(settings: Any, key: str, text: str) -> Any:
 class TaskSimulator(ABC):
     """One simulator instance per process (it may hold a physics client)."""
 
+    def perturb(self, values: Mapping[str, float], seed: int | Sequence[int] = 0) -> None:
+        """Run the following rollouts in a world that differs from the nominal one by `values`
+        (perturbation name -> value, checked by `Task.check_perturbation`; a name left out is
+        nominal, `{}` is the nominal world); `seed` (an int or ints, as numpy's default_rng takes)
+        seeds their random part (sensor noise) anew for each rollout, and `simulate(plan, env)`
+        then replays a plan made for `env` in that world. A task that declares perturbations
+        overrides this."""
+        if any(float(v) != 0.0 for v in values.values()):
+            raise TaskError(f"this simulator cannot perturb its world (asked for {', '.join(values)})")
+
     @abstractmethod
     def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:
         """Replay `plan` (a Plan, or a (horizon + 1, channels) array at the task's dt) in
@@ -108,6 +160,11 @@ class Task(ABC):
     #: ranges of q̇_max, f_min and f_max (lo, hi) wider than any shipped problem, down to limits
     #: under which the task fails: what refinement and the sweep draw limits from (optional)
     wide_limits: dict[str, tuple[float, float]] | None = None
+    #: how the world may differ from the one a plan is made for (`Perturbation`); the task's
+    #: simulator applies them (`TaskSimulator.perturb`). Empty: none declared
+    perturbations: tuple[Perturbation, ...] = ()
+    #: numeric outcome details (key, label, unit, scale) `evaluate robustness` reports besides success
+    outcome_measures: tuple[tuple[str, str, str, float], ...] = ()
 
     # -- names -----------------------------------------------------------------------------
     @property
@@ -144,6 +201,61 @@ class Task(ABC):
                 raise EnvironmentRangeError(f"{v.name} = {x!r} is outside the {self.name} scene's physical range "
                                             f"[{lo}, {hi}]")
             out[v.name] = x
+        return out
+
+    def perturbation(self, name: str) -> Perturbation:
+        """The perturbation called `name`; a one-line error naming the known ones otherwise."""
+        for p in self.perturbations:
+            if p.name == name:
+                return p
+        known = ", ".join(p.name for p in self.perturbations) or "none"
+        raise TaskError(f"{name!r} is not a perturbation of task {self.name!r} (known: {known})")
+
+    def check_perturbation(self, values: Mapping[str, float]) -> dict[str, float]:
+        """`values` (name -> value) as floats, every name known and every value in its physical range."""
+        out = {}
+        for name, value in values.items():
+            p, x = self.perturbation(name), float(value)
+            lo, hi = p.physical
+            if not (math.isfinite(x) and lo <= x <= hi):
+                raise TaskError(f"{p.label(x)} is outside what the {self.name} scene accepts for {name}: "
+                                f"[{lo:g}, {hi:g}] ({p.unit or 'offset'}; nominal {p.nominal:g})")
+            out[name] = x
+        return out
+
+    def true_env(self, env: Mapping[str, float], values: Mapping[str, float]) -> dict[str, float]:
+        """The environment the world has when a plan was told `env`, under perturbations `values`:
+        each misestimated variable's true value, clipped to the simulator's physical range."""
+        out = {k: float(v) for k, v in env.items()}
+        ranges = self.env_ranges("physical")
+        for name, value in values.items():
+            p = self.perturbation(name)
+            if p.env:
+                lo, hi = ranges[p.env]
+                out[p.env] = min(max(p.apply(out[p.env], float(value)), lo), hi)
+        return out
+
+    def check_randomization(self, ranges: Mapping[str, tuple[float, float]], option: str = "--randomize"
+                            ) -> dict[str, tuple[float, float]]:
+        """Ranges to draw perturbations from per demonstration: each name known, LO < HI, both
+        within the perturbation's physical range; a one-line error naming the value and the fix."""
+        out = {}
+        for name, (lo, hi) in ranges.items():
+            p = self.perturbation(name)
+            plo, phi = p.physical
+            if not (math.isfinite(lo) and math.isfinite(hi)):
+                raise TaskError(f"{option} {name}={lo:g},{hi:g}: give finite numbers LO,HI")
+            if lo > hi:
+                raise TaskError(f"{option} {name}={lo:g},{hi:g}: the range is reversed; write the lower bound first "
+                                f"({name}={hi:g},{lo:g})")
+            if lo == hi:
+                elo, ehi = (min(p.values), max(p.values)) if len(set(p.values)) > 1 else (plo, phi)
+                raise TaskError(f"{option} {name}={lo:g},{hi:g}: the range is empty; give LO < HI (e.g. "
+                                f"{name}={elo:g},{ehi:g})")
+            if lo < plo or hi > phi:
+                raise TaskError(f"{option} {name}={lo:g},{hi:g}: outside the {self.name} scene's physical range "
+                                f"[{plo:g}, {phi:g}] for {name}; give a range within it")
+            out[name] = (float(lo), float(hi))
         return out
 
     def check_channels(self, names: tuple[str, ...] | list[str], what: str) -> None:
@@ -203,4 +315,7 @@ class Task(ABC):
                 "env_names": list(self.env_names),
                 "environment": [{"name": v.name, "unit": v.unit, "physical": list(v.physical),
                                  "sampled": list(v.sampled), "description": v.description} for v in self.env_vars],
+                "perturbations": [{"name": p.name, "unit": p.unit, "nominal": p.nominal, "physical": list(p.physical),
+                                   "values": list(p.values), "env": p.env or None, "description": p.description}
+                                  for p in self.perturbations],
                 "horizon": self.horizon, "dt": self.dt}

@@ -14,10 +14,10 @@ from typing import Any, Mapping
 import numpy as np
 
 from judgeopt.tasks.base import Task, TaskSimulator
-from judgeopt.tasks.scoop.spec import CHANNELS, ENV_VARS, PAPER_GRID, scoop_plan
+from judgeopt.tasks.scoop.spec import CHANNELS, ENV_VARS, PAPER_GRID, PERTURBATIONS, scoop_plan
 from judgeopt.trajectory import Plan
 
-__all__ = ["CHANNELS", "ENV_VARS", "PAPER_GRID", "ScoopSettings", "ScoopTask", "scoop_plan"]
+__all__ = ["CHANNELS", "ENV_VARS", "PAPER_GRID", "PERTURBATIONS", "ScoopSettings", "ScoopTask", "scoop_plan"]
 
 
 @dataclass(frozen=True)
@@ -53,6 +53,10 @@ class ScoopTask(Task):
     default_judge = "models/judge_refined"
     # q̇_max from what reaches y_obj = 0.28 m; below f_max ~ 15 N no scoop succeeds at high friction
     wide_limits = {"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)}
+    # the world unlike the model: friction and position misestimated, mass, size, mat, gains, sensor
+    perturbations = PERTURBATIONS
+    outcome_measures = (("object_ahead", "the object's centre ahead of the blade centre", "cm", 100.0),
+                        ("object_bottom", "the object's lowest point above the plate", "cm", 100.0))
 
     def terminal(self, env: Mapping[str, float]) -> dict[str, float]:
         return {"y": float(env["y_obj"])}
@@ -70,9 +74,13 @@ class ScoopTask(Task):
         from judgeopt.tasks.scoop.rollout import RolloutConfig
 
         rc = RolloutConfig()
-        return (f"the object rose {100 * details['object_rise']:.1f} cm and ended "
+        test = (f"clear of the plate by {100 * rc.success_clearance:g} cm" if rc.success_test == "clear"
+                else f"rise >= {100 * rc.success_rise:g} cm")
+        bottom = (f" (its lowest point {100 * details['object_bottom']:.1f} cm above the plate)"
+                  if "object_bottom" in details else "")
+        return (f"the object rose {100 * details['object_rise']:.1f} cm{bottom} and ended "
                 f"{100 * details['offset_from_blade']:.1f} cm from the blade centre, "
-                f"{'on' if details['on_blade'] else 'off'} the blade (success: rise >= {100 * rc.success_rise:g} cm, "
+                f"{'on' if details['on_blade'] else 'off'} the blade (success: {test}, "
                 f"on the blade, off the plate, within {100 * rc.max_overhang:g} cm)")
 
     def render(self, plan: Any, env: Mapping[str, float], out: Any, caption: str = "", simulator: Any = None):
@@ -94,7 +102,7 @@ class ScoopTask(Task):
         return random_command(rng, float(env["y_obj"]), (settings or ScoopSettings()).commands).as_array()
 
     def simulator(self, settings: ScoopSettings | None = None) -> TaskSimulator:
-        from judgeopt.tasks.scoop.rollout import Simulator
+        from judgeopt.tasks.scoop.world import WorldSimulator
 
         s = settings or ScoopSettings()
-        return Simulator(s.scene, s.controller, s.rollout)
+        return WorldSimulator(s.scene, s.controller, s.rollout)

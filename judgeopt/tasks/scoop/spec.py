@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from judgeopt.tasks.base import EnvVar
+from judgeopt.tasks.base import EnvVar, Perturbation
 from judgeopt.trajectory import Channel, Plan
 
 CHANNELS = (Channel("y", "m", "position"), Channel("ydot", "m/s", "velocity", of="y"), Channel("f", "N", "force"))
@@ -24,3 +24,30 @@ def scoop_plan(dt: float, y: np.ndarray, ydot: np.ndarray, f: np.ndarray) -> Pla
 
 #: the paper's 3 x 3 grid of demonstration environments (IV-B)
 PAPER_GRID = {"y_obj": (0.10, 0.19, 0.28), "mu": (1.0, 2.0, 3.0)}
+
+
+#: the paper's real-robot gains (Table 6): Kp diag[1000, 1000, 1000, 2000, 2000, 2000] 1/s^2, Kv diag[40, 40, 40,
+#: 50, 50, 50] 1/s; the simulation's are Table 1 (ControllerConfig's defaults)
+REAL_ROBOT_KP = (1000.0, 1000.0, 1000.0, 2000.0, 2000.0, 2000.0)
+REAL_ROBOT_KV = (40.0, 40.0, 40.0, 50.0, 50.0, 50.0)
+
+#: how the world may differ from the one the scoop's plans are made for (evaluate robustness,
+#: collect --randomize); the scene applies them (judgeopt.tasks.scoop.world)
+PERTURBATIONS = (
+    Perturbation("mu_factor", "x", (0.1, 10.0), (0.5, 2.0), "friction misestimated: the true spatula-object mu is the "
+                 "told one times this (clipped to the scene's range, 0.01-5)", nominal=1.0, env="mu"),
+    Perturbation("y_obj_offset", "m", (-0.05, 0.05), (-0.03, 0.03), "the object lies this much further along the "
+                 "scooping line than the plan was told (negative: nearer)", env="y_obj"),
+    Perturbation("mass_factor", "x", (0.2, 5.0), (0.5, 2.0), "the object's mass (30 g) times this", nominal=1.0),
+    Perturbation("size_factor", "x", (0.7, 1.3), (0.85, 1.15), "the object's diameter, thickness and bevel times this "
+                 "(mass unchanged)", nominal=1.0),
+    Perturbation("stiffness_factor", "x", (0.2, 5.0), (0.6, 1.6), "the mat's contact stiffness times this",
+                 nominal=1.0),
+    Perturbation("damping_factor", "x", (0.2, 5.0), (0.5, 2.0), "the mat's contact damping times this", nominal=1.0),
+    Perturbation("real_gains", "", (0.0, 1.0), (1.0,), "the controller's gains from the simulation's (Table 1, 0) to "
+                 "the paper's real robot's (Table 6, 1), interpolated"),
+    Perturbation("sensor_bias", "N", (-10.0, 10.0), (-1.0, 1.0), "the force sensor reads the pressing force this "
+                 "much high"),
+    Perturbation("sensor_noise", "N", (0.0, 10.0), (0.5, 2.0), "standard deviation of Gaussian noise on each 1 kHz "
+                 "force reading, per axis (seeded per rollout)"),
+)

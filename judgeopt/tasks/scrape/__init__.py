@@ -19,9 +19,10 @@ from typing import Any, Mapping
 import numpy as np
 
 from judgeopt.tasks.base import Task, TaskSimulator
-from judgeopt.tasks.scrape.spec import CHANNELS, ENV_VARS, F_RANGE, START, V_MAX, X_RANGE, Y_RANGE
+from judgeopt.tasks.scrape.spec import CHANNELS, ENV_VARS, F_RANGE, PERTURBATIONS, START, V_MAX, X_RANGE, Y_RANGE
 
-__all__ = ["CHANNELS", "ENV_VARS", "F_RANGE", "START", "V_MAX", "X_RANGE", "Y_RANGE", "ScrapeSettings", "ScrapeTask"]
+__all__ = ["CHANNELS", "ENV_VARS", "F_RANGE", "PERTURBATIONS", "START", "V_MAX", "X_RANGE", "Y_RANGE", "ScrapeSettings",
+           "ScrapeTask"]
 
 
 @dataclass(frozen=True)
@@ -51,6 +52,10 @@ class ScrapeTask(Task):
     default_judge = "models/scrape/judge_refined"
     # the push needs 5 N at mu 0.2 and 28 N at mu 0.7 (docs/tasks.md): f_max from 3 N fails often
     wide_limits = {"qdot_max": (0.2, V_MAX), "f_min": (0.0, 2.0), "f_max": (3.0, F_RANGE[1])}
+    # the world unlike the model: friction and the puck's place misestimated, mass, gains, sensor
+    perturbations = PERTURBATIONS
+    outcome_measures = (("pushed", "how far the puck was pushed along y", "cm", 100.0),
+                        ("blade_max_lift", "the blade's highest rise while pushing", "mm", 1000.0))
 
     def settings(self) -> ScrapeSettings:
         return ScrapeSettings()
@@ -65,9 +70,9 @@ class ScrapeTask(Task):
         return random_command(rng, env, (settings or ScrapeSettings()).commands)
 
     def simulator(self, settings: ScrapeSettings | None = None) -> TaskSimulator:
-        from judgeopt.tasks.scrape.scene import ScrapeSimulator
+        from judgeopt.tasks.scrape.world import ScrapeWorldSimulator
 
-        return ScrapeSimulator((settings or ScrapeSettings()).scene)
+        return ScrapeWorldSimulator((settings or ScrapeSettings()).scene)
 
     def explain(self, details: Mapping[str, Any]) -> str:
         return (f"the puck moved {100 * details['pushed']:.1f} cm along y, the blade rose at most "

@@ -3,7 +3,7 @@ the task share, in a module that imports none of them."""
 
 from __future__ import annotations
 
-from judgeopt.tasks.base import EnvVar
+from judgeopt.tasks.base import EnvVar, Perturbation
 from judgeopt.trajectory import Channel
 
 CHANNELS = (
@@ -25,3 +25,21 @@ Y_RANGE = (-0.05, 0.1855)
 F_RANGE = (0.0, 30.0)
 #: the demonstrations' speed limit: faster pushes throw the blade up whatever the force
 V_MAX = 0.6
+
+#: how the world may differ from the one the scrape's plans are made for (evaluate robustness,
+#: collect --randomize); the scene applies them (judgeopt.tasks.scrape.world)
+PERTURBATIONS = (
+    Perturbation("mu_factor", "x", (0.1, 10.0), (0.8, 1.25), "friction misestimated: the true puck-plate mu is the "
+                 "told one times this (clipped to the scene's range, 0.05-1)", nominal=1.0, env="mu"),
+    Perturbation("x_obj_offset", "m", (-0.05, 0.05), (-0.02, 0.02), "the puck lies this much further along x than "
+                 "the plan was told", env="x_obj"),
+    Perturbation("y_obj_offset", "m", (-0.05, 0.05), (-0.02, 0.02), "the puck lies this much further along y (towards "
+                 "the tray) than the plan was told (clipped to 0.06-0.18 m)", env="y_obj"),
+    Perturbation("mass_factor", "x", (0.2, 5.0), (0.5, 2.0), "the puck's mass (1 kg) times this", nominal=1.0),
+    Perturbation("kp_factor", "x", (0.1, 5.0), (0.5,), "the controller's stiff x, y and rotation gains times this "
+                 "(z, force-controlled, unchanged)", nominal=1.0),
+    Perturbation("sensor_bias", "N", (-10.0, 10.0), (-1.0, 1.0), "the force sensor reads the pressing force this "
+                 "much high"),
+    Perturbation("sensor_noise", "N", (0.0, 10.0), (0.5, 2.0), "standard deviation of Gaussian noise on each 1 kHz "
+                 "force reading, per axis (seeded per rollout)"),
+)
