@@ -54,11 +54,12 @@ def cmd_collect(args: argparse.Namespace) -> int:
         if not sep:
             raise CLIError(f"--set {item!r}: give KEY=VALUE, e.g. commands.constant_force_share=0.4")
         settings = with_setting(settings, key, value)
+    randomize = task.check_randomization(dict(args.randomize or []))  # names, order, physical range: one line
     partial = Path(args.out).with_name(Path(args.out).name + ".partial")
     if not partial.exists():  # an unfinished collection resumes; a finished file is kept
         refuse_overwrite([args.out], args.overwrite)
     spec = CollectionSpec(task=task.name, seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges,
-                          settings=settings)
+                          settings=settings, randomize=randomize or None)
     ds = collect(spec, args.out, n_jobs=args.jobs, scheduler=args.scheduler, chunk_size=args.chunk,
                  progress=not args.quiet, command=command_line())
     s = ds.summary()
@@ -148,6 +149,10 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="one of the task's settings, e.g. commands.constant_force_share=0.4 (the scoop: share of "
                    "commands pressing at one near-constant force)")
+    c.add_argument("--randomize", type=env_range, action="append", metavar="NAME=LO,HI",
+                   help="draw one of the scene's unobserved parameters (the task's perturbations, e.g. "
+                   "stiffness_factor=0.6,1.6 or y_obj_offset=-0.02,0.02; `judgeopt tasks --json` lists them) uniformly "
+                   "per demonstration; the draws are recorded in the file (default: the nominal scene)")
     c.add_argument("--chunk", type=positive, default=25, help="demonstrations per work unit (and per resume step)")
     c.set_defaults(func=cmd_collect)
 

@@ -35,7 +35,10 @@ class CollectionSpec:
     """What to collect for `task`. `grid` given: `per_env` demonstrations at each grid point
     (product of the value lists); otherwise `n` demonstrations with environments uniform in
     `ranges` (default: the task's sampled ranges). `settings`: the task's own settings
-    (default: its shipped ones)."""
+    (default: its shipped ones). `randomize`: perturbation name -> (lo, hi), drawn uniformly per
+    demonstration (`Task.perturbations`; the command is made for the recorded environment, the
+    world differs from it by the draw), from its own generator seeded by (seed, i, 1): a
+    collection without it is the one it always was."""
 
     task: str = DEFAULT_TASK
     seed: int = 0
@@ -44,9 +47,12 @@ class CollectionSpec:
     per_env: int = 0
     ranges: dict[str, tuple[float, float]] | None = None
     settings: Any = None
+    randomize: dict[str, tuple[float, float]] | None = None
 
     def __post_init__(self) -> None:
         task = get_task(self.task)
+        if self.randomize is not None:
+            object.__setattr__(self, "randomize", task.check_randomization(self.randomize) or None)
         if self.ranges is None:
             object.__setattr__(self, "ranges", task.env_ranges())
         if self.settings is None:
@@ -68,8 +74,16 @@ class CollectionSpec:
             return dict(zip(self.env_names, map(float, points[i // self.per_env])))
         return {k: float(rng.uniform(*self.ranges[k])) for k in self.env_names}
 
+    def world(self, i: int) -> dict[str, float]:
+        """Demonstration i's draw of the randomised parameters (its sensor noise is seeded by (seed, i, 2))."""
+        rng = np.random.default_rng([self.seed, i, 1])
+        return {k: float(rng.uniform(lo, hi)) for k, (lo, hi) in (self.randomize or {}).items()}
+
     def fingerprint(self) -> str:
-        return json.dumps(asdict(self), sort_keys=True, default=str)
+        d = asdict(self)
+        if d["randomize"] is None:  # what an unfinished collection made before --randomize recorded
+            del d["randomize"]
+        return json.dumps(d, sort_keys=True, default=str)
 
 
 def _simulator(spec: CollectionSpec):
@@ -82,22 +96,30 @@ def _simulator(spec: CollectionSpec):
 def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
     """Run demonstrations `indices`; bad commands or environments are recorded, not raised."""
     task, sim = get_task(spec.task), _simulator(spec)
-    rows: dict[str, list] = {"commands": [], "responses": [], "labels": [], "env": [], "index": []}
+    rows: dict[str, list] = {"commands": [], "responses": [], "labels": [], "env": [], "index": [], "randomized": []}
     errors = []
     for i in indices:
         rng = np.random.default_rng([spec.seed, i])
         env = spec.environment(i, rng)
+        draw = spec.world(i)
         try:
             plan = task.random_command(rng, env, spec.settings)
-            result = sim.simulate(plan, env)
+            if spec.randomize:
+                sim.perturb(draw, seed=[spec.seed, i, 2])
+            try:
+                result = sim.simulate(plan, env)
+            finally:
+                if spec.randomize:
+                    sim.perturb({})
         except (PlanError, ValueError, RuntimeError) as exc:
-            errors.append({"index": i, **env, "error": str(exc)})
+            errors.append({"index": i, **env, **draw, "error": str(exc)})
             continue
         rows["commands"].append(plan)
         rows["responses"].append(result.response)
         rows["labels"].append(int(result.success))
         rows["env"].append([env[k] for k in spec.env_names])
         rows["index"].append(i)
+        rows["randomized"].append([draw[k] for k in draw])
     out = {k: np.array(v) for k, v in rows.items()}
     out["errors"] = errors
     return out
@@ -143,6 +165,7 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
     errors = [e for p in parts for e in p["errors"]]
     task = get_task(spec.task)
     shape = (-1, task.horizon + 1, len(task.channels))
+    names = tuple(spec.randomize or ())
     ds = Dataset(
         commands=np.concatenate([p["commands"].reshape(shape) for p in parts]),
         responses=np.concatenate([p["responses"].reshape(shape) for p in parts]),
@@ -150,12 +173,15 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
         env=np.concatenate([p["env"].reshape(-1, len(spec.env_names)) for p in parts]),
         dt=task.dt, env_names=spec.env_names, task=task.name, channels=task.channel_names, units=task.units,
         index=np.concatenate([p["index"].reshape(-1) for p in parts]),
+        randomized=np.concatenate([p["randomized"].reshape(-1, len(names)) for p in parts]) if names else None,
+        randomized_names=names,
         meta={
             "seed": spec.seed, "source": "simulation", "package_version": judgeopt.__version__,
             "command": command or "judgeopt.data.collect.collect()", "created": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
             "settings": asdict(spec.settings) if spec.settings is not None else None,
             "generator": {"grid": spec.grid, "per_env": spec.per_env, "ranges": None if spec.grid else spec.ranges},
             "errors": errors, "collection_seconds_last_run": round(elapsed, 1),
+            **({"randomize": {k: list(v) for k, v in spec.randomize.items()}} if names else {}),
         },
     )
     save(ds, out)

@@ -12,6 +12,9 @@ scoop's: y (m), ydot (m/s), f (N)):
     /labels     int8    (n,)         1 success, 0 failure
     /env        float64 (n, E)       environment values, columns named by attr env_names
     /index      int64   (n,)         demonstration number within its collection (seeded)
+    /randomized float64 (n, K)       optional (`collect --randomize`): each demonstration's draw of the
+                                     scene's unobserved parameters (the task's perturbations), columns
+                                     named by attr randomized_names; attr `randomize` holds the ranges
     attrs: format, format_version, task (absent in files made before tasks: the scoop), dt,
            horizon, channels, units, env_names, seed, source, package_version, command,
            created, and JSON blobs `settings` (the task's scene, controller, rollout and
@@ -57,11 +60,19 @@ class Dataset:
     task: str = DEFAULT_TASK
     channels: tuple[str, ...] = CHANNELS
     units: dict[str, str] = field(default_factory=lambda: dict(UNITS))
+    # per demonstration, the unobserved parameters its world was drawn with (collect --randomize;
+    # columns named by randomized_names), or None
+    randomized: np.ndarray | None = None
+    randomized_names: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         n = len(self.labels)
         self.index = np.arange(n) if self.index is None else np.asarray(self.index)
         self.channels = tuple(self.channels)
+        self.randomized_names = tuple(self.randomized_names)
+        if self.randomized is not None and self.randomized.shape != (n, len(self.randomized_names)):
+            raise DatasetError(f"randomized must have shape ({n}, {len(self.randomized_names)}) for "
+                               f"{self.randomized_names}, got {self.randomized.shape}")
         for name in ("commands", "responses"):
             a = getattr(self, name)
             if a.ndim != 3 or a.shape[0] != n or a.shape[2] != len(self.channels):
@@ -88,7 +99,8 @@ class Dataset:
     def subset(self, mask: np.ndarray) -> "Dataset":
         return dataclasses.replace(self, commands=self.commands[mask], responses=self.responses[mask],
                                    labels=self.labels[mask], env=self.env[mask], index=self.index[mask],
-                                   meta=dict(self.meta))
+                                   meta=dict(self.meta),
+                                   randomized=None if self.randomized is None else self.randomized[mask])
 
     def summary(self) -> dict[str, Any]:
         """Counts and success ratios overall and per distinct environment (for grids)."""
@@ -115,6 +127,9 @@ class Dataset:
             "source": self.meta.get("source"),
             "package_version": self.meta.get("package_version"),
             "errors": len(self.meta.get("errors", [])),
+            **({"randomized": {k: [float(self.randomized[:, j].min()), float(self.randomized[:, j].max())]
+                               if self.n else None for j, k in enumerate(self.randomized_names)}}
+               if self.randomized is not None else {}),
         }
 
 
@@ -131,6 +146,9 @@ def save(ds: Dataset, path: str | Path) -> Path:
             h.create_dataset("labels", data=ds.labels.astype(np.int8))
             h.create_dataset("env", data=ds.env.astype(np.float64))
             h.create_dataset("index", data=ds.index.astype(np.int64))
+            if ds.randomized is not None:
+                h.create_dataset("randomized", data=ds.randomized.astype(np.float64))
+                h.attrs["randomized_names"] = json.dumps(list(ds.randomized_names))
             a = h.attrs
             a["format"], a["format_version"] = FORMAT, VERSION
             a["dt"], a["horizon"] = float(ds.dt), int(ds.horizon)
@@ -147,7 +165,7 @@ def save(ds: Dataset, path: str | Path) -> Path:
     return path
 
 
-_JSON_ATTRS = {"simulator", "settings", "generator", "errors", "seed"}
+_JSON_ATTRS = {"simulator", "settings", "generator", "errors", "seed", "randomize"}
 
 
 def load(path: str | Path) -> Dataset:
@@ -173,7 +191,8 @@ def load(path: str | Path) -> Dataset:
             raise DatasetError(f"{path}: names no channels (attribute 'channels')")
         meta = {}
         for k, v in a.items():
-            if k in ("format", "format_version", "dt", "horizon", "channels", "units", "env_names", "task"):
+            if k in ("format", "format_version", "dt", "horizon", "channels", "units", "env_names", "task",
+                     "randomized_names"):
                 continue
             meta[k] = json.loads(v) if k in _JSON_ATTRS and isinstance(v, str) else (v.item() if hasattr(v, "item") else v)
         try:
@@ -189,6 +208,8 @@ def load(path: str | Path) -> Dataset:
                 task=str(a.get("task", DEFAULT_TASK)),
                 channels=tuple(channels),
                 units=json.loads(a["units"]) if "units" in a else {},
+                randomized=h["randomized"][()] if "randomized" in h else None,
+                randomized_names=tuple(json.loads(a.get("randomized_names", "[]"))),
             )
         except DatasetError as exc:
             raise DatasetError(f"{path}: {exc}") from exc
@@ -212,4 +233,6 @@ def concatenate(parts: list[Dataset]) -> Dataset:
     return dataclasses.replace(
         first, commands=np.concatenate([p.commands for p in parts]), responses=np.concatenate([p.responses for p in parts]),
         labels=np.concatenate([p.labels for p in parts]), env=np.concatenate([p.env for p in parts]),
-        index=np.concatenate([p.index for p in parts]), meta=dict(first.meta))
+        index=np.concatenate([p.index for p in parts]), meta=dict(first.meta),
+        randomized=np.concatenate([p.randomized for p in parts])
+        if all(p.randomized is not None and p.randomized_names == first.randomized_names for p in parts) else None)
