@@ -185,6 +185,14 @@ def env_values(text: str) -> tuple[str, tuple[float, ...]]:
     return name.strip(), floats(values)
 
 
+def name_values(text: str) -> tuple[str, tuple[float, ...] | None]:
+    """NAME, or NAME=V1,V2,... (a name with its own values instead of the default ones)."""
+    name, sep, values = text.partition("=")
+    if not name.strip() or (sep and not values.strip()):
+        raise argparse.ArgumentTypeError(f"expected NAME or NAME=V1,V2,..., got {text!r}")
+    return name.strip(), floats(values) if sep else None
+
+
 def env_range(text: str) -> tuple[str, tuple[float, float]]:
     """NAME=LO,HI"""
     name, sep, values = text.partition("=")

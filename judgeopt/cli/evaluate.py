@@ -7,13 +7,14 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from judgeopt.cli.common import QUIET, env_range, jobs_option, out_option, positive, seed_option
+from judgeopt.cli.common import (CLIError, QUIET, env_range, floats, jobs_option, name_values, out_option, positive,
+                                 seed_option)
 
 def _table_names() -> list[str]:
-    """`planners`, `sweep` and every task's own tables (the scoop's table4, table5, compare)."""
+    """`planners`, `sweep`, `robustness` and every task's own tables (the scoop's table4, table5, compare)."""
     from judgeopt.tasks import get_task, task_names
 
-    return ["planners", "sweep"] + sorted({name for t in task_names() for name in get_task(t).tables()})
+    return ["planners", "sweep", "robustness"] + sorted({name for t in task_names() for name in get_task(t).tables()})
 
 
 def _default_problem(table: str) -> str:
@@ -38,8 +39,13 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
+    robustness_only = [o for o, v in (("--perturb", args.perturb), ("--qdot-max", args.qdot_max)) if v]
+    if robustness_only and args.table != "robustness":
+        raise CLIError(f"{', '.join(robustness_only)}: only for `judgeopt evaluate robustness`")
     if args.table == "sweep":
         return cmd_sweep(args)
+    if args.table == "robustness":
+        return cmd_robustness(args)
     problem = load_problem(resolve(args.problem or _default_problem(args.table)))
     available = tables(problem.task)
     if args.table not in available:
@@ -127,6 +133,53 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_robustness(args: argparse.Namespace) -> int:
+    import csv
+    import io
+
+    from judgeopt.evaluate.robustness import (DEFAULT_METHODS, markdown_robustness, plot_robustness, robustness_cases,
+                                              robustness_rows, run_replays, summarise_robustness)
+    from judgeopt.evaluate.tables import run_table
+    from judgeopt.files import atomic_write, resolve, save_figure
+    from judgeopt.planners.problem import load_problem
+    from judgeopt.tasks import get_task
+
+    problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
+    if args.judge:
+        problem = problem.with_overrides(judge=args.judge)
+    task = get_task(problem.task)
+    cases = robustness_cases(task, args.perturb)  # an unknown name fails here, before any planning
+    qdots = tuple(args.qdot_max or (problem.qdot_max,))
+    for q in qdots:
+        problem.with_overrides(qdot_max=q)  # a limit that contradicts the problem: one line, before planning
+    rows, notes = robustness_rows(problem, qdots, tuple(args.methods or DEFAULT_METHODS), args.models)
+    if not rows:
+        raise CLIError(f"no planner to evaluate: {'; '.join(notes)}")
+    out = Path(args.out or "out/evaluate/robustness")
+    plans = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
+                      chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    results = run_replays(problem, rows, plans, cases, args.n, args.seed, out, chunk=args.chunk, n_jobs=args.jobs,
+                          scheduler=args.scheduler, progress=not args.quiet)
+    summary = summarise_robustness(task, rows, cases, results)
+    title = (f"Plans for the nominal world replayed in perturbed ones: {problem.name} (task {task.name}), "
+             f"{args.n} environments ({_env_text(problem)}), seed {args.seed}, judge {problem.judge}")
+    md = markdown_robustness(task, summary, title)
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
+    w.writeheader()
+    w.writerows(summary)
+    atomic_write(out / "robustness.md", md)
+    atomic_write(out / "robustness.csv", buf.getvalue())
+    png = save_figure(plot_robustness(task, summary, title), out / "robustness.png")
+    for note in notes:
+        print(f"note: {note}")
+    print(md)
+    print("command: judgeopt evaluate " + " ".join(_argv(args)))
+    for f in (out / "robustness.md", out / "robustness.csv", png):
+        print(f"wrote {f}")
+    return 0
+
+
 def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[float, float]]:
     """--vary NAME=LO,HI checked against the task's physical range."""
     from judgeopt.planners.problem import ProblemError
@@ -162,6 +215,8 @@ def _argv(args: argparse.Namespace) -> list[str]:
         [] if args.baselines else ["--no-baselines"])
     extra += [f"--{k.replace('_', '-')} {v[0]:g},{v[1]:g}" for k, v in vars(args).items()
               if k.endswith("_range") and v is not None]
+    extra += (["--perturb", *(n if v is None else f"{n}={','.join(f'{x:g}' for x in v)}" for n, v in args.perturb)]
+              if args.perturb else []) + (["--qdot-max", ",".join(f"{q:g}" for q in args.qdot_max)] if args.qdot_max else [])
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
@@ -227,7 +282,9 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                                            "resumes)"), seed_option(), jobs_option(), QUIET])
     e.add_argument("table", choices=_table_names(),
                    help="planners: both planners, the CEM and the no-judge baseline (any task); sweep: held-out limit "
-                   "sets, with the no-judge baseline and a feasibility search in simulation; the scoop's table4, "
+                   "sets, with the no-judge baseline and a feasibility search in simulation; robustness: each "
+                   "planner's plans (default amortized and direct) for the nominal world replayed unchanged under the "
+                   "task's perturbations, one at a time; the scoop's table4, "
                    "table5 (the paper's tables) and compare (planners and remedies side by side)")
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
                    "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
@@ -238,6 +295,11 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"))
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")
+    e.add_argument("--perturb", nargs="+", type=name_values, metavar="NAME[=V1,V2]",
+                   help="robustness: the perturbations to replay under, each at the task's values or the ones given "
+                   "(default: every one the task declares; `judgeopt tasks --json` lists them)")
+    e.add_argument("--qdot-max", type=floats, metavar="V1,V2", help="robustness: the velocity limits to plan under, "
+                   "one evaluation each (e.g. 1.0,0.4; default: the problem's)")
     e.add_argument("--n", type=positive, default=100, help="environments per row")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
