@@ -23,6 +23,10 @@ ARM_JOINTS = (
     "wrist_2_joint",
     "wrist_3_joint",
 )
+# PyBullet calls of the 1 kHz loop, bound once (ArmDriver.step)
+_get_joint_states, _set_joint_motors, _step_simulation = pb.getJointStates, pb.setJointMotorControlArray, pb.stepSimulation
+_TORQUE_CONTROL = pb.TORQUE_CONTROL
+
 #: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
 HOME_POSTURE = np.array([-0.816, -1.778, 2.418, -2.211, -1.571, -2.387])
 
@@ -82,6 +86,7 @@ class ArmDriver:
         orn = pb.getDynamicsInfo(body.robot, body.ft_joint, physicsClientId=body.client)[4]
         self.sensor_rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
         self._sensor_valid = False
+        self._read_joints = [*body.arm_joints, body.ft_joint]  # read() takes the sensor's joint last
         #: the force sensor's errors: None (exact), or a callable from the true force in the sensor
         #: frame to the reading (bias and noise; the tasks' perturbations set it)
         self.sensor_model = None
@@ -99,14 +104,16 @@ class ArmDriver:
         self._sensor_valid = False  # PyBullet reports the last step's joint reaction until the next step
 
     def read(self) -> tuple[np.ndarray, np.ndarray | None]:
+        """Joint angles and the force reading (sensor frame; None on the first step after a reset).
+        One request for the arm's and the sensor's joints: PyBullet copies the body's whole state
+        for each request."""
         b = self.body
-        states = pb.getJointStates(b.robot, b.arm_joints, physicsClientId=b.client)
-        q = np.array([s[0] for s in states])
+        states = _get_joint_states(b.robot, self._read_joints, physicsClientId=b.client)
+        q = np.array([s[0] for s in states[:-1]])
         if not self._sensor_valid:
             self._sensor_valid = True
             return q, None
-        ft = pb.getJointState(b.robot, b.ft_joint, physicsClientId=b.client)[2]
-        force = self.sensor_rotation @ np.array(ft[:3])
+        force = self.sensor_rotation @ np.array(states[-1][2][:3])
         return q, force if self.sensor_model is None else self.sensor_model(force)
 
     def step(self, cmd: TaskCommand) -> None:
@@ -114,5 +121,6 @@ class ArmDriver:
         q, ft = self.read()
         tau = self.controller.step(q, ft, cmd)
         b = self.body
-        pb.setJointMotorControlArray(b.robot, b.arm_joints, pb.TORQUE_CONTROL, forces=tau, physicsClientId=b.client)
-        pb.stepSimulation(physicsClientId=b.client)
+        # a list converts to PyBullet's doubles in half the time an array of 6 takes (same values)
+        _set_joint_motors(b.robot, b.arm_joints, _TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=b.client)
+        _step_simulation(physicsClientId=b.client)

@@ -22,6 +22,18 @@ import numpy as np
 import pinocchio as pin
 from scipy.linalg.lapack import dgesv  # a 6x6 solve without numpy.linalg's per-call checks
 
+# The control step's callees bound once: a module attribute lookup per call adds up at 1 kHz.
+_joint_jacobians, _frame_placement, _frame_jacobian = (pin.computeJointJacobians, pin.updateFramePlacement,
+                                                       pin.getFrameJacobian)
+_crba, _rnea, _log3 = pin.crba, pin.rnea, pin.log3
+_cholesky_decompose, _cholesky_solve = pin.cholesky.decompose, pin.cholesky.solve
+_LOCAL_WORLD_ALIGNED = pin.LOCAL_WORLD_ALIGNED
+_minimum, _maximum = np.minimum, np.maximum
+
+#: the default commanded rotation (tool level); read-only, so every command can share it
+IDENTITY = np.eye(3)
+IDENTITY.flags.writeable = False
+
 
 @dataclass(frozen=True)
 class ControllerConfig:
@@ -41,7 +53,7 @@ class TaskCommand:
     """One control step's command: TCP position and rotation, their velocity, pressing force."""
 
     position: np.ndarray
-    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    rotation: np.ndarray = field(default_factory=lambda: IDENTITY)
     velocity: np.ndarray = field(default_factory=lambda: np.zeros(6))
     force_z: float = 0.0
     selection: np.ndarray | None = None  # overrides the configured S (e.g. pure position control to lift)
@@ -60,11 +72,13 @@ class HybridController:
         self.kf = np.array(cfg.kf_lambda_inv)
         self.S = np.array(cfg.selection)
         self.tau_max = np.array(cfg.torque_limit)
+        self._tau_min = -self.tau_max
         self.payload_weight = payload_weight  # N, what the sensor carries at rest
         self._err = np.zeros(6)
         w = 2 * math.pi * cfg.cutoff_hz
         self._alpha = math.exp(-w * cfg.dt)  # discrete first-order filter pole
         self._gain = (1 - self._alpha) / cfg.dt
+        self._one_minus_alpha = 1 - self._alpha
         self.reset(np.zeros(self.model.nq))
 
     def reset(self, q: np.ndarray) -> None:
@@ -81,40 +95,55 @@ class HybridController:
         weight (`payload_weight`) is removed after rotating it to the world frame, so
         `f_est` is the contact force on the tool, z > 0 when pressing on the plate. None means
         no reading yet (the first step after a reset): the force filter keeps its state.
+
+        This runs once per simulated millisecond, next to a physics step of about 60 us, so it
+        is written for few Python-level calls (docs/physics.md, "The control step's cost");
+        every arithmetic operation is the one it always was, in the same order: rollouts are
+        chaotic enough that a one-ulp change shows as a different trajectory.
         """
-        model, data = self.model, self.data
+        model, data, tcp = self.model, self.data, self.tcp
         a = self._alpha
         self.qd_est = v = a * self.qd_est + self._gain * (q - self.q_prev)
         self.q_prev = q
-        pin.computeJointJacobians(model, data, q)  # also the forward kinematics
-        oMf = pin.updateFramePlacement(model, data, self.tcp)
-        J = pin.getFrameJacobian(model, data, self.tcp, pin.LOCAL_WORLD_ALIGNED)
+        _joint_jacobians(model, data, q)  # also the forward kinematics
+        oMf = _frame_placement(model, data, tcp)
+        J = _frame_jacobian(model, data, tcp, _LOCAL_WORLD_ALIGNED)
         R = oMf.rotation
         if sensor_force is not None:
             contact = -(R @ sensor_force)
             contact[2] += self.payload_weight
-            self.f_est = a * self.f_est + (1 - a) * contact
+            self.f_est = a * self.f_est + self._one_minus_alpha * contact
         self.position = oMf.translation.copy()
         self.velocity = J @ v
 
         S = self.S if cmd.selection is None else cmd.selection
         err = self._err
         err[:3] = cmd.position - self.position
-        err[3:] = pin.log3(cmd.rotation @ R.T)
+        err[3:] = _log3(_rotation_error(cmd.rotation, R))
         xdd = S * (self.kp * err + self.kv * (cmd.velocity - self.velocity))
         if S[2] < 1.0:
-            # force control in z: the wrench on the environment is F_cmd = (0, 0, -f_z); its
-            # error against the sensed reaction, plus the feed-forward Lambda^-1 F_cmd, where
-            # Lambda^-1 F_cmd = J M^-1 J^T F_cmd uses M's Cholesky factors (Pinocchio)
-            pin.crba(model, data, q)
-            pin.cholesky.decompose(model, data)
-            lam_inv_z = J @ pin.cholesky.solve(model, data, J[2].copy())
-            xdd[2] += (1.0 - S[2]) * self.kf[2] * (self.f_est[2] - cmd.force_z)
-            xdd -= lam_inv_z * cmd.force_z
+            self._add_force_terms(xdd, q, J, S, cmd.force_z)
         # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
-        qdd = dgesv(J, xdd)[2]
-        tau = pin.rnea(model, data, q, v, qdd)
-        return np.minimum(np.maximum(tau, -self.tau_max), self.tau_max)
+        tau = _rnea(model, data, q, v, dgesv(J, xdd)[2])
+        return _minimum(_maximum(tau, self._tau_min), self.tau_max)
+
+    def _add_force_terms(self, xdd: np.ndarray, q: np.ndarray, J: np.ndarray, S: np.ndarray, force_z: float) -> None:
+        """Force control in z, in place: the wrench on the environment is F_cmd = (0, 0, -f_z);
+        its error against the sensed reaction, plus the feed-forward Lambda^-1 F_cmd, where
+        Lambda^-1 F_cmd = J M^-1 J^T F_cmd uses M's Cholesky factors (Pinocchio)."""
+        model, data = self.model, self.data
+        _crba(model, data, q)
+        _cholesky_decompose(model, data)
+        lam_inv_z = J @ _cholesky_solve(model, data, J[2].copy())
+        xdd[2] += (1.0 - S[2]) * self.kf[2] * (self.f_est[2] - force_z)
+        xdd -= lam_inv_z * force_z
+
+
+def _rotation_error(target: np.ndarray, R: np.ndarray) -> np.ndarray:
+    """target R^T, the argument of the orientation error's log. For the identity (the default
+    command) that product is R^T exactly (1 x r + 0 x s + 0 x t = r in floating point), so the
+    3x3 product is skipped: about 1 us of a step's budget."""
+    return R.T if target is IDENTITY else target @ R.T
 
 
 def solve_ik(model: pin.Model, frame: int, target: pin.SE3, q0: np.ndarray, iters: int = 200) -> np.ndarray:
