@@ -189,7 +189,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.tasks import get_task
 
         sim = get_task(problem.task).simulator()
-    results = planners.solve(env, simulator=sim)
+    results = planners.solve(env, simulator=sim, warm_start=args.warm_start)
     planned = [r for r in results if r.verdict is not None]
     unlikely = bool(planned) and all(r.verdict == "unlikely" for r in planned)
     suggestions = []
@@ -413,6 +413,9 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--models", default="models", metavar="DIR",
                    help="folder searched for generators (models/: $JUDGEOPT_MODELS, then the shipped models)")
     add_backend_argument(s)
+    s.add_argument("--warm-start", choices=("generator", "none"), default="generator",
+                   help="where the direct solve starts: generator (default: its plan, where a generator covers the "
+                   "limits) or none (cold, from a min-jerk move: as for a new task or new limits)")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")
@@ -443,8 +446,9 @@ def add_backend_argument(p: argparse.ArgumentParser) -> None:
     from judgeopt.judge.casadi_fn import BACKENDS, DEFAULT_BACKEND
 
     p.add_argument("--casadi-backend", choices=("auto", *BACKENDS), default=DEFAULT_BACKEND,
-                   help="how the direct solve evaluates the judge: auto takes l4casadi where installed (fastest; its "
-                   "library builds once per judge, about 15 s), else native (the CasADi graph, about 2x slower)")
+                   help="how the direct solve evaluates the judge: auto takes torch32 (the float32 network, fastest) "
+                   "under the objective target, and l4casadi where installed under log_p (float64; its library "
+                   "builds once per judge, about 15 s), else native (the CasADi graph)")
 
 
 def add_limit_range_arguments(group, defaults=None) -> None:

@@ -7,7 +7,7 @@ Inputs, raw physical values as the judge was trained on:
 Outputs: logit (1x1) and prob = sigmoid(logit) (1x1). First derivatives are exact.
 
 Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py, docs/judge.md):
-  "l4casadi"   (default where installed: "auto") l4casadi 2.0: TorchScript traces of the unrolled network (one-Linear
+  "l4casadi"   ("auto" where installed and the use needs float64) l4casadi 2.0: TorchScript traces of the unrolled network (one-Linear
                LSTM cell, float64) compiled into a shared library, cached per model. Its C++
                side casts inputs to float32, so inputs are sent as exact float32 hi/lo halves
                (see _split_normalized). Fastest float64 backend (0.76x torch autograd in
@@ -15,6 +15,10 @@ Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py,
   "torch"      a casadi.Callback around torch autograd (reverse mode: one backward pass; the
                forward graph of the last point is kept). No build; needs Python at solve
                time; precision="float32" is 4.5x faster but its ~1e-6 noise stalls Ipopt.
+  "torch32"    the same callback in float32 (precision="float32"): the network as trained, its
+               value and gradient 3-4x cheaper; the noise (~1e-7 relative) is harmless where the
+               judge is a constraint (the direct solve's objective "target"), not where -log p
+               is driven to a tight tolerance.
   "native"     the network as a CasADi MX graph (0.1 s to build, no Python or libtorch at
                solve time, usable in code generation); about 1.7x torch autograd (float64).
   "compiled"   that graph generated as C and compiled with gcc -O2 (about 80 s, cached).
@@ -43,16 +47,21 @@ from torch import nn
 
 from judgeopt.judge.model import Judge, JudgeError, UnrolledJudge, lstm_layer_weights
 
-BACKENDS = ("native", "compiled", "torch", "l4casadi")
+BACKENDS = ("native", "compiled", "torch", "torch32", "l4casadi")
 #: "auto": l4casadi where it is installed (the fastest exact float64 backend, docs/judge.md), else native
 DEFAULT_BACKEND = "auto"
 log = logging.getLogger("judgeopt")
 
 
-def choose_backend(backend: str = DEFAULT_BACKEND) -> str:
-    """`backend` itself, or for "auto" the fastest one this installation has."""
+def choose_backend(backend: str = DEFAULT_BACKEND, noise_tolerant: bool = False) -> str:
+    """`backend` itself, or for "auto" the fastest one for the use: where ~1e-7 relative noise
+    is harmless (`noise_tolerant`: the judge as a constraint) the float32 callback, 3-4x
+    faster than any float64 one (benchmarks/bench_direct.py --levers); else l4casadi where it
+    is installed, else native."""
     if backend != "auto":
         return backend
+    if noise_tolerant:
+        return "torch32"
     return "l4casadi" if importlib.util.find_spec("l4casadi") is not None else "native"
 
 
@@ -114,15 +123,16 @@ def model_hash(judge: Judge) -> str:
 
 
 def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: str | Path | None = None,
-                       name: str = "judge", precision: str = "float64") -> CasadiJudge:
+                       name: str = "judge", precision: str = "float64", noise_tolerant: bool = False) -> CasadiJudge:
     """Build the judge's CasADi Function with `backend` (cached where building is slow).
 
     precision applies to the torch backend: "float64" (default) evaluates a float64 copy of
     the network, exact to rounding; "float32" runs the network as trained, several times
     faster on CPU (oneDNN's fused LSTM kernel) but with ~1e-7 relative noise in value and
     gradient, which can stall a line search at tight tolerances. The other backends are float64.
+    `noise_tolerant`: what "auto" may choose (choose_backend).
     """
-    backend = choose_backend(backend)
+    backend = choose_backend(backend, noise_tolerant)
     if backend not in BACKENDS:
         raise JudgeError(f"unknown CasADi backend {backend!r}; choose one of {['auto', *BACKENDS]}")
     if precision not in ("float64", "float32"):
@@ -133,8 +143,8 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
         fn = _native_function(judge, name)
         return CasadiJudge(fn, backend, time.perf_counter() - t0, horizon=judge.config.horizon,
                            n_env=judge.config.n_env)
-    if backend == "torch":
-        cb = _TorchJudgeCallback(name, judge, dtype=getattr(torch, precision))
+    if backend in ("torch", "torch32"):
+        cb = _TorchJudgeCallback(name, judge, dtype=torch.float32 if backend == "torch32" else getattr(torch, precision))
         return CasadiJudge(cb, backend, time.perf_counter() - t0, horizon=judge.config.horizon,
                            n_env=judge.config.n_env, _keep=[cb])
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()

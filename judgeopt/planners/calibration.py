@@ -40,6 +40,7 @@ def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits:
     # the task is left out: the judge's hash already tells tasks apart (and ids fitted before tasks stay valid)
     skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
     skip |= set(LIMIT_NAMES) if over_limits else set()
+    skip |= set() if method == "direct" else {"objective", "p_target"}  # the direct solve's alone
     p = {k: v for k, v in problem.to_dict().items() if k not in skip}
     blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
                       sort_keys=True, default=str)

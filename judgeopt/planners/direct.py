@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import casadi as cs
 import numpy as np
@@ -39,6 +39,15 @@ STATUS = {"Solve_Succeeded": "solved", "Solved_To_Acceptable_Level": "solved",
           "Infeasible_Problem_Detected": "infeasible", "Maximum_Iterations_Exceeded": "not_converged",
           "Maximum_CpuTime_Exceeded": "not_converged", "Restoration_Failed": "not_converged",
           "Search_Direction_Becomes_Too_Small": "not_converged", "Error_In_Step_Computation": "not_converged"}
+
+
+def _logit(p: float) -> float:
+    return float(np.log(p / (1 - p)))
+
+
+def softplus(z: cs.MX) -> cs.MX:
+    """log(1 + exp(z)) without overflow: -log sigmoid(-z)."""
+    return cs.fmax(z, 0) + cs.log1p(cs.exp(-cs.fabs(z)))
 
 
 def judge_env(judge: Judge, env: dict[str, float]) -> np.ndarray:
@@ -68,10 +77,32 @@ def default_guess(problem: Problem, env: dict[str, float]) -> Plan:
     return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
 
 
+#: objective "target": weight of the squared change to the warm start (scaled variables, per
+#: variable), and of the slack s (logit units) that lets an unreachable target give the judge's
+#: best instead: SLACK_WEIGHT (s + s^2). The linear part keeps a reachable target exact; the
+#: square gives Ipopt curvature (Gauss-Newton on the logit) where the target is out of reach
+PROXIMITY_WEIGHT = 1e-2
+SLACK_WEIGHT = 10.0
+#: objective "target" from a start far below it: each solve raises the logit by at most this much
+#: from where the last one ended (the judge's linearisation holds over a few logit units; one
+#: leap from a failing start to p = 0.98 takes Ipopt many short steps), in at most MAX_ROUNDS
+TARGET_STEP = 4.0
+MAX_ROUNDS = 6
+ROUND_ITER_MIN = 20
+HESSIANS = ("exact", "limited-memory")
+
+
 @dataclass
 class DirectOptions:
+    """How Ipopt is run (what is solved is the Problem's). hessian "exact": every term's exact
+    second derivatives except the judge's (none in a constraint; Gauss-Newton in -log p);
+    "limited-memory": L-BFGS for everything (the earlier default, for comparison)."""
+
     print_level: int = 0
     max_cpu_time: float = 60.0
+    hessian: str = "exact"
+    #: further Ipopt options by name (e.g. {"mu_init": 1e-4}), over judgeopt's own
+    ipopt: dict = field(default_factory=dict)
 
 
 class DirectPlanner:
@@ -93,6 +124,8 @@ class DirectPlanner:
         self.problem, self.judge, self.cjudge = problem, judge, cjudge
         self.members, self.trust = list(members or []), trust
         self.options = options or DirectOptions()
+        if self.options.hessian not in HESSIANS:
+            raise ProblemError(f"hessian {self.options.hessian!r}: choose one of {', '.join(HESSIANS)}")
         self._build()
 
     def _build(self) -> None:
@@ -115,24 +148,73 @@ class DirectPlanner:
         g_term = cs.vertcat(*ends, *[(vs[-1, i] - qd_end[i]) / SCALE_V for i in range(na)])
         parts = [qs[:, i] for i in range(na)] + [vs[:, i] for i in range(na)] + [f[:, i] for i in range(nf)]
         traj = cs.reshape(cs.horzcat(*[parts[k] for k in channel_order(pr)]).T, -1, 1)  # row-major, channel order
-        logit = self.cjudge.fn(traj, env)[0] if not self.members else self._pessimistic(traj, env)
-        neg_log_p = cs.fmax(-logit, 0) + cs.log1p(cs.exp(-cs.fabs(logit)))  # softplus(-logit), stable
         rate = cs.diff(f) if nf == 1 else f[1:, :] - f[:-1, :]
-        obj = pr.P * neg_log_p + pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(rate) / dt
-        g = [g_vel, g_pos, g_term]
-        if pr.p_min is not None:
-            g.append(logit)
-        if pr.trust_region is not None:
-            g.append(self.trust.casadi_distance2(traj) / pr.trust_region ** 2)  # <= 1
+        effort = pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(rate) / dt
         x = cs.vertcat(cs.vec(zq), cs.vec(zv), cs.vec(za), cs.vec(zf))
-        nlp = {"x": x, "p": cs.vertcat(env, q_end), "f": obj, "g": cs.vertcat(*g)}
-        opts = {"ipopt.hessian_approximation": "limited-memory", "ipopt.max_iter": pr.max_iter,
-                "ipopt.tol": pr.tol, "ipopt.constr_viol_tol": 1e-9, "ipopt.acceptable_iter": 0,
-                "ipopt.print_level": self.options.print_level, "ipopt.max_cpu_time": self.options.max_cpu_time,
-                "ipopt.sb": "yes", "print_time": False}
+        params = [env, q_end]
+        self._target = pr.objective == "target"
+        if self._target:  # slack s >= 0 in logit units: logit + s >= target, s costs SLACK_WEIGHT (s + s^2)
+            slack, x_ref = cs.MX.sym("slack"), cs.MX.sym("x_ref", x.size1())
+            params.append(x_ref)
+            effort += PROXIMITY_WEIGHT * cs.sumsqr(x - x_ref) + SLACK_WEIGHT * (slack + slack ** 2)
+            x = cs.vertcat(x, slack)
+        logit = self.cjudge.fn(traj, env)[0] if not self.members else self._pessimistic(traj, env)
+
+        def objective_and_constraints(z: cs.MX) -> tuple[cs.MX, cs.MX]:
+            """The NLP with the judge's logit given as z (the real one, or a stand-in for the Hessian)."""
+            obj = effort if self._target else effort + pr.P * softplus(-z)
+            g = [g_vel, g_pos, g_term, z + slack if self._target else z]
+            if pr.trust_region is not None:
+                g.append(self.trust.casadi_distance2(traj) / pr.trust_region ** 2)  # <= 1
+            return obj, cs.vertcat(*g)
+
+        obj, g = objective_and_constraints(logit)
+        p = cs.vertcat(*params)
+        self._logit_fn = cs.Function("logit", [x, p], [logit])
+        nlp = {"x": x, "p": p, "f": obj, "g": g}
+        opts = {"ipopt.max_iter": self._round_iter(), "ipopt.tol": pr.tol, "ipopt.constr_viol_tol": 1e-9,
+                "ipopt.acceptable_iter": 0, "ipopt.print_level": self.options.print_level,
+                "ipopt.max_cpu_time": self.options.max_cpu_time, "ipopt.sb": "yes", "print_time": False}
+        z = cs.MX.sym("z")  # the judge's logit as a stand-in: derivatives by the chain rule through it
+        obj_z, g_z = objective_and_constraints(z)
+        grad_logit = cs.gradient(logit, x)  # one reverse sweep of the judge
+        at_logit = lambda e: cs.substitute(e, z, logit)  # noqa: E731
+        opts["grad_f"] = cs.Function("grad_f", [x, p], [obj, at_logit(cs.gradient(obj_z, x) + cs.jacobian(obj_z, z) * grad_logit)],
+                                     ["x", "p"], ["f", "grad_f_x"])
+        opts["jac_g"] = cs.Function("jac_g", [x, p], [g, at_logit(cs.jacobian(g_z, x) + cs.mtimes(cs.jacobian(g_z, z), grad_logit.T))],
+                                    ["x", "p"], ["g", "jac_g_x"])
+        if self.options.hessian == "limited-memory":
+            opts["ipopt.hessian_approximation"] = "limited-memory"
+        else:
+            opts["hess_lag"] = self._hess_lag(x, p, logit, objective_and_constraints)
+            # a warm start is near the optimum: keep it close to the bounds it touches, with a small
+            # barrier (benchmarks/bench_direct.py --levers: 6-7 iterations instead of 11)
+            opts.update({"ipopt.mu_init": 1e-5, "ipopt.bound_push": 1e-6, "ipopt.bound_frac": 1e-6})
+        opts.update({f"ipopt.{k}": v for k, v in self.options.ipopt.items()})
         self.solver = cs.nlpsol("judgeopt_direct", "ipopt", nlp, opts)
         self._n_eq = 2 * n * na + int(self._fixed.sum()) + na
+        self._n_plan = x.size1() - int(self._target)
         self._bounds()
+
+    def _round_iter(self) -> int:
+        """Ipopt's iterations per solve: the problem's max_iter, shared by the rounds of "target"."""
+        return max(ROUND_ITER_MIN, self.problem.max_iter // MAX_ROUNDS) if self._target else self.problem.max_iter
+
+    def _hess_lag(self, x: cs.MX, p: cs.MX, logit: cs.MX, nlp_of) -> cs.Function:
+        """Ipopt's Hessian of the Lagrangian: exact for every term but the judge, whose curvature
+        (which l4casadi cannot give, and which is indefinite) is left out; under -P log p its
+        Gauss-Newton term P p (1 - p) ∇logit ∇logitᵀ takes its place. Under objective "target"
+        the result is constant: one factorisation pattern, no judge call."""
+        z = cs.MX.sym("z")
+        obj, g = nlp_of(z)
+        lam_f, lam_g = cs.MX.sym("lam_f"), cs.MX.sym("lam_g", g.size1())
+        hess = cs.substitute(cs.hessian(lam_f * obj + cs.dot(lam_g, g), x)[0], z, cs.DM(0.0))
+        if not self._target:
+            grad = cs.gradient(logit, x)
+            s = 0.5 + 0.5 * cs.tanh(0.5 * logit)
+            hess += lam_f * self.problem.P * s * (1 - s) * cs.mtimes(grad, grad.T)
+        return cs.Function("hess_lag", [x, p, lam_f, lam_g], [cs.triu(hess)],
+                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
     def _bounds(self) -> None:
         """Variable bounds from the problem's limits, and the constraint bounds."""
@@ -146,12 +228,14 @@ class DirectPlanner:
                              column(-free, n, 1.0), column(pr.vec("f_min"), n + 1, SCALE_F)])
         ub = np.concatenate([column(pr.vec("q_max"), n, SCALE_Q), column(pr.vec("qdot_max"), n, SCALE_V),
                              column(free, n, 1.0), column(pr.vec("f_max"), n + 1, SCALE_F)])
+        # the judge's row: its logit (plus the slack) at least the target, or p_min's logit, or free;
+        # the slack never relaxes p_min, which is hard
+        self._hard = hard = _logit(pr.p_min) if pr.p_min is not None else -np.inf
+        floor = max(_logit(pr.p_target), hard) if self._target else hard
+        if self._target:
+            lb, ub = np.append(lb, 0.0), np.append(ub, floor - hard)
         self._lbx, self._ubx = lb, ub
-        self._lbg = np.zeros(self._n_eq)
-        self._ubg = np.zeros(self._n_eq)
-        if pr.p_min is not None:
-            lp = float(np.log(pr.p_min / (1 - pr.p_min)))
-            self._lbg, self._ubg = np.append(self._lbg, lp), np.append(self._ubg, np.inf)
+        self._lbg, self._ubg = np.append(np.zeros(self._n_eq), floor), np.append(np.zeros(self._n_eq), np.inf)
         if pr.trust_region is not None:
             self._lbg, self._ubg = np.append(self._lbg, -np.inf), np.append(self._ubg, 1.0)
 
@@ -194,16 +278,47 @@ class DirectPlanner:
             return infeasible
         warm = "generator" if guess is not None else "min-jerk guess"
         guess = guess if guess is not None else default_guess(pr, env)
-        x0 = np.clip(self._pack(guess), self._lbx, self._ubx)
-        p = np.concatenate([judge_env(self.judge, env), pr.terminal_positions(env)[self._fixed]])
-        sol = self.solver(x0=x0, p=p, lbx=self._lbx, ubx=self._ubx, lbg=self._lbg, ubg=self._ubg)
+        fixed = [judge_env(self.judge, env), pr.terminal_positions(env)[self._fixed]]
+        x = self._pack(guess)
+        calls = ("nlp_g", "nlp_jac_g") + (() if self._target else ("nlp_f", "nlp_grad_f"))
+        iterations = judge_calls = rounds = 0
+        target = self._lbg[-1]
+        lbg, ubx = self._lbg.copy(), self._ubx.copy()
+        while True:
+            p = np.concatenate(fixed + [x] if self._target else fixed)
+            x0 = x
+            if self._target:  # a reachable step of the target at a time, near the last plan (TARGET_STEP)
+                reached = float(self._logit_fn(np.append(x, 0.0), p))
+                lbg[-1] = min(target, reached + TARGET_STEP)
+                ubx[-1] = max(0.0, lbg[-1] - self._hard)
+                x0 = np.append(x, max(0.0, lbg[-1] - reached))
+            sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
+            stats = self.solver.stats()
+            iterations += int(stats.get("iter_count", 0))
+            judge_calls += int(sum(stats.get(f"n_call_{k}", 0) for k in calls))
+            rounds += 1
+            x = np.asarray(sol["x"]).ravel()[:self._n_plan]
+            if not self._target:
+                break
+            reached = float(self._logit_fn(np.append(x, 0.0), p))
+            short = reached < lbg[-1] - 1e-3  # this step was out of reach: the judge's best is here
+            if short or lbg[-1] >= target or rounds >= MAX_ROUNDS or iterations >= pr.max_iter:
+                break
         elapsed = time.perf_counter() - t0
-        stats = self.solver.stats()
         ipopt_status = stats.get("return_status", "unknown")
-        plan = self._unpack(np.asarray(sol["x"]).ravel())
+        status = STATUS.get(ipopt_status, "failed")
+        message = f"Ipopt: {ipopt_status}"
+        if self._target:
+            if status == "infeasible" and pr.p_min is None:  # the slack keeps every row satisfiable
+                status = "not_converged"
+            if reached < target - 1e-3:
+                p_reached = 1.0 / (1.0 + np.exp(-reached))
+                message += (f"; p_target = {pr.p_target:g} not reached in {rounds} round(s) of at most "
+                            f"{self._round_iter()} iterations: best p = {p_reached:.3g}")
+        plan = self._unpack(x)
         residuals = constraint_residuals(pr, plan, env)
         traj, je = plan.as_array().ravel(), judge_env(self.judge, env)
-        info = {"ipopt_status": ipopt_status, "warm_start": warm}
+        info = {"ipopt_status": ipopt_status, "warm_start": warm, "judge_calls": judge_calls, "rounds": rounds}
         if self.members:  # the ensemble's own prediction: the mean of its members' probabilities
             z = np.array([float(m.fn(traj, je)[0]) for m in self.members])
             prob = float(np.mean(1.0 / (1.0 + np.exp(-z))))
@@ -211,8 +326,6 @@ class DirectPlanner:
             info.update(member_success=(1.0 / (1.0 + np.exp(-z))).tolist(), pessimistic_success=bound)
         else:
             bound = prob = float(1.0 / (1.0 + np.exp(-float(self.cjudge.fn(traj, je)[0]))))
-        status = STATUS.get(ipopt_status, "failed")
-        message = f"Ipopt: {ipopt_status}"
         if pr.p_min is not None:
             residuals["p_min"] = max(0.0, pr.p_min - bound)
         if pr.trust_region is not None:
@@ -223,4 +336,4 @@ class DirectPlanner:
             worst = sorted((k for k, v in residuals.items() if v > 1e-6), key=residuals.get, reverse=True)
             message += f"; constraints left violated: {', '.join(worst) or 'none measurable'}"
         return PlanResult(self.method, env, plan, prob, status, elapsed, residuals,
-                          iterations=int(stats.get("iter_count", -1)), message=message, info=info)
+                          iterations=iterations, message=message, info=info)

@@ -29,6 +29,8 @@ from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 Y_OBJ = "y_obj"
 #: a terminal position left to the planner
 FREE = "free"
+#: the direct solve's objectives (Problem.objective)
+OBJECTIVES = ("target", "log_p")
 #: fields holding one value per position axis (or one for all), and one per force channel
 AXIS_FIELDS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "q_end", "qdot_end")
 FORCE_FIELDS = ("f_min", "f_max")
@@ -59,7 +61,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
     "terminal": ("q_end", "qdot_end"),
     "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
-    "solver": ("p_min", "max_iter", "tol", "pessimism", "trust_region"),
+    "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region"),
     "models": ("judge", "ensemble", "trust_model", "calibration"),
 }
 #: the position, velocity and force limits (bounds a planner can change without being rebuilt)
@@ -83,6 +85,8 @@ FIELD_HELP: dict[str, str] = {
     "R": "generator: weight of the terminal error (eq. 4)",
     "acc_weight": "direct solve: weight of squared acceleration, per (m/s^2)^2 s",
     "force_rate_weight": "direct solve: weight of squared force rate, per (N/s)^2 s",
+    "objective": "direct solve: target (least effort and change to the warm start, p >= p_target) or log_p (eq. 3)",
+    "p_target": "direct solve, objective target: the judge's probability the plan must reach",
     "p_min": "direct solve: hard lower bound on the judge's probability",
     "max_iter": "direct solve: Ipopt iterations",
     "tol": "direct solve: Ipopt tolerance",
@@ -127,6 +131,11 @@ class Problem:
     R: float = 1000.0
     acc_weight: float = 1e-3
     force_rate_weight: float = 1e-6
+    # the direct solve's objective: "target" reaches p >= p_target with the least effort and the
+    # least change to its warm start (a well-posed optimum, a few iterations; docs/planners.md);
+    # "log_p" maximises the judge, eq. (3): -P log y_judge (the paper's)
+    objective: str = "target"
+    p_target: float = 0.98
     p_min: float | None = None  # optional hard constraint y_judge >= p_min in the direct solve
     max_iter: int = 300
     tol: float = 1e-6
@@ -193,6 +202,10 @@ class Problem:
                       & (self._vec("qdot0", task) <= self._vec("qdot_max", task))):
             raise ProblemError(f"start velocity qdot0 = {self.qdot0} is outside [qdot_min, qdot_max] = "
                                f"[{self.qdot_min}, {self.qdot_max}]{where}")
+        if self.objective not in OBJECTIVES:
+            raise ProblemError(f"objective = {self.objective!r}{where}: choose one of {', '.join(OBJECTIVES)}")
+        if not (isinstance(self.p_target, (int, float)) and 0.0 < self.p_target < 1.0):
+            raise ProblemError(f"p_target = {self.p_target!r}{where} must lie strictly between 0 and 1")
         if self.p_min is not None and not (0.0 < self.p_min < 1.0):
             raise ProblemError(f"p_min = {self.p_min}{where} must lie strictly between 0 and 1 (or be left out)")
         if not (isinstance(self.pessimism, (int, float)) and self.pessimism >= 0):

@@ -26,6 +26,8 @@ from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.trajectory import PlanError
 
 METHODS = ("amortized", "direct", "cem")
+#: where the direct solve starts: the generator's plan where one covers the limits, or cold
+WARM_STARTS = ("generator", "none")
 @dataclass(frozen=True)
 class ChosenModels:
     """The model files a problem's planners use and their weights hashes; cheap to find (no
@@ -129,7 +131,9 @@ class Planners:
                 out.notes.append("no generator trained for these limits: the direct solve starts from the min-jerk guess")
         if "direct" in methods:
             backend = casadi_backend or DEFAULT_BACKEND
-            cj = build_casadi_judge(jmodel, backend=backend)
+            # the judge as a constraint (objective "target") tolerates float32's noise; -log p does not
+            tolerant = problem.objective == "target"
+            cj = build_casadi_judge(jmodel, backend=backend, noise_tolerant=tolerant)
             members, trust = None, None
             if problem.ensemble:
                 from judgeopt.judge.ensemble import load_ensemble
@@ -137,7 +141,7 @@ class Planners:
                 judges, _ = load_ensemble(resolve(problem.ensemble))
                 for m in judges:
                     check_compatible(m.config, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
-                members = [build_casadi_judge(m, backend=backend) for m in judges]
+                members = [build_casadi_judge(m, backend=backend, noise_tolerant=tolerant) for m in judges]
                 out.notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
                                  f"{len(members)} judges ({problem.ensemble})")
             if problem.trust_region is not None:
@@ -205,9 +209,13 @@ class Planners:
         out._settings(chosen)
         return out
 
-    def solve(self, env: dict[str, float], simulator=None, guess=None) -> list[PlanResult]:
+    def solve(self, env: dict[str, float], simulator=None, guess=None, warm_start: str = "generator") -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so).
-        `guess`: the direct solve's warm start instead of the generator's plan."""
+        `guess`: the direct solve's warm start instead of the generator's plan; `warm_start`
+        "none": the direct solve starts cold, from its min-jerk guess, as with a new task or
+        limits no generator covers."""
+        if warm_start not in WARM_STARTS:
+            raise ProblemError(f"warm start {warm_start!r}: choose one of {', '.join(WARM_STARTS)}")
         from judgeopt.planners.calibration import inputs as calibration_inputs
 
         env = self.problem.env_dict(env)
@@ -218,7 +226,7 @@ class Planners:
         if self.amortized is not None:
             r = self.amortized.solve(env)
             # under other limits (a generator that does not cover them): the direct solve clips it
-            guess = guess if guess is not None else r.plan
+            guess = guess if guess is not None or warm_start == "none" else r.plan
             if "amortized" in self.methods:
                 results.append(r)
         if self.direct is not None:

@@ -145,8 +145,9 @@ def test_direct_p_min_constraint(judge):
     # without the judge in the objective the smoothest plan is judged a failure; p_min lifts it
     cj = build_casadi_judge(judge)
     env = {"y_obj": 0.25, "mu": 3.0}  # high friction: the smoothest plan presses with only 12.5 N
-    free = DirectPlanner(Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, P=0.0), judge, cj).solve(env)
-    held = DirectPlanner(Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, P=0.0, p_min=0.9), judge, cj).solve(env)
+    free = DirectPlanner(Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, P=0.0, objective="log_p"), judge, cj).solve(env)
+    held = DirectPlanner(Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, P=0.0, objective="log_p", p_min=0.9), judge,
+                         cj).solve(env)
     assert free.predicted_success < 0.5
     assert held.status == "solved" and held.predicted_success == pytest.approx(0.9, abs=0.01)
     assert held.max_constraint_violation < 1e-6
