@@ -76,9 +76,8 @@ class Perturbation:
         """`mass_factor x2`, `y_obj_offset +0.03 m`."""
         if self.unit == "x":
             return f"{self.name} x{value:g}"
-        if not self.unit:
-            return f"{self.name} {value:g}"
-        return f"{self.name} {value:+g} {self.unit}"
+        sign = "+" if self.physical[0] < 0 else ""  # an offset either way shows its sign
+        return f"{self.name} {value:{sign}g}{' ' + self.unit if self.unit else ''}"
 
     def apply(self, told: float, value: float) -> float:
         """The true value of a misestimated environment variable told `told`."""
