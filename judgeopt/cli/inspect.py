@@ -199,6 +199,8 @@ def format_dataset(path: str, s: dict[str, Any]) -> str:
         for row in s["per_env"]:
             env = "  ".join(f"{k}={row[k]:.3g}" for k in s["env_names"])
             lines.append(f"    {env}  n={row['n']:<5} success {row['success_ratio']:.3f}")
+    lines += [f"  randomized     : {name} {rng[0]:.4g} .. {rng[1]:.4g}" for name, rng in s.get("randomized", {}).items()
+              if rng is not None]
     lines += [f"  errors         : {s['errors']}", f"  made by        : {s['command']}"]
     return "\n".join(lines)
 

@@ -19,6 +19,8 @@ def test_a_randomised_collection_records_each_draw_and_replays_from_it(tmp_path)
     ds = collect(spec, tmp_path / "r.h5", n_jobs=1, chunk_size=2, progress=False)
     assert ds.randomized_names == tuple(RANGES) and ds.randomized.shape == (4, 3)
     assert ds.meta["randomize"] == {k: list(v) for k, v in RANGES.items()}
+    shown = ds.summary()["randomized"]  # what `judgeopt inspect` prints
+    assert all(RANGES[k][0] <= lo <= hi <= RANGES[k][1] for k, (lo, hi) in shown.items()) and list(shown) == list(RANGES)
     for i, row in zip(ds.index, ds.randomized):
         # each demonstration's draw: uniform in the ranges, from its own generator (seed, i, 1)
         rng = np.random.default_rng([5, int(i), 1])
