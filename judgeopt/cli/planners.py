@@ -84,6 +84,15 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
                    help="any environment variable by name, e.g. --env mu=2 (the same as --mu 2)")
 
 
+def ranges_given(args: argparse.Namespace, problem: Problem) -> dict[str, tuple[float, float]]:
+    """The environment variables given on the command line as a range (--mu 1.5,2.5, --env mu=1.5,2.5):
+    "somewhere in here", as opposed to the problem file's ranges (what demonstrations and
+    evaluations draw from)."""
+    named = {k[4:] for k, v in vars(args).items() if k.startswith("env_") and v is not None}
+    named |= {name for name, _ in getattr(args, "env", None) or []}
+    return {k: v for k, v in problem.environment.items() if k in named and isinstance(v, tuple)}
+
+
 def problem_from_args(args: argparse.Namespace) -> Problem:
     from judgeopt.files import resolve
 
@@ -189,7 +198,16 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.tasks import get_task
 
         sim = get_task(problem.task).simulator()
-    results = planners.solve(env, simulator=sim, warm_start=args.warm_start)
+    env_set = None
+    uncertain = ranges_given(args, problem)
+    if uncertain and planners.direct is not None:
+        from judgeopt.planners.solve import env_grid
+
+        env_set = env_grid(env, uncertain, planners.judge.config.env_names)
+        where = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in uncertain.items())
+        planners.notes.append(f"direct: planned for the {args.range_case} case over {len(env_set)} environments "
+                              f"({where}); the others for its middle ({', '.join(f'{k} = {env[k]:g}' for k in uncertain)})")
+    results = planners.solve(env, simulator=sim, warm_start=args.warm_start, env_set=env_set, case=args.range_case)
     planned = [r for r in results if r.verdict is not None]
     unlikely = bool(planned) and all(r.verdict == "unlikely" for r in planned)
     suggestions = []
@@ -416,6 +434,10 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--warm-start", choices=("generator", "none"), default="generator",
                    help="where the direct solve starts: generator (default: its plan, where a generator covers the "
                    "limits) or none (cold, from a min-jerk move: as for a new task or new limits)")
+    s.add_argument("--env-case", dest="range_case", choices=("worst", "expected"), default="worst",
+                   help="an environment variable given here as a range (--mu 1.5,2.5: somewhere in here): the direct "
+                   "solve plans for the worst case over a grid of it (default) or for the expected success over the "
+                   "grid; the other planners plan for its middle")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")

@@ -1,17 +1,27 @@
-"""Direct solve of one instance with Ipopt: maximise the judge under HARD constraints.
+"""Direct solve of one instance with Ipopt, under HARD constraints.
 
 Decision variables (lifted, one block per sample): positions q_1..q_N, velocities q̇_1..q̇_N,
 accelerations a_1..a_N and forces f_0..f_N, all scaled to O(1). Why lifted rather than
 accelerations only: position, velocity and force limits become simple bounds, which Ipopt
 keeps exactly (its final point is projected into the original bounds), and the integration
 (dynamics.py) becomes 2N linear equalities that hold to rounding after the first Newton step.
-The terminal state is two more equalities; the optional y_judge >= p_min is one inequality
-on the logit. The objective is eq. (3), P softplus(-logit) = -P log y_judge, plus two small
-smoothing terms. The judge has no usable second derivatives (l4casadi exposes first ones),
-so Ipopt runs with a limited-memory (L-BFGS) Hessian.
+The terminal state is two more equalities; the optional y_judge >= p_min is one inequality.
+
+Objectives (Problem.objective):
+  "target" (default)  least effort and least change to the warm start, subject to the judge's
+      logit >= logit(p_target). A saturated judge (p = 1.000 everywhere near a good plan) gives
+      -log p no curvature and no optimum worth the iterations; this has a well-defined one next
+      to its start, so a warm start converges in a few iterations. The judge enters only as a
+      constraint, so its curvature can be left out of the Hessian (every other term's is exact
+      and constant), and its float32 noise is harmless. A slack lets an unreachable target give
+      the judge's best instead; a start far below the target is raised TARGET_STEP at a time.
+  "log_p"  the paper's eq. (3), P softplus(-logit) = -P log y_judge, with the judge's Hessian
+      replaced by its Gauss-Newton term (or L-BFGS for everything: DirectOptions.hessian).
+Both add two small smoothing terms. The derivatives Ipopt gets are built here (grad_f, jac_g,
+hess_lag): the judge's gradient by one reverse sweep, not CasADi's Jacobian of it.
 
 One solver is built per problem; the environment and q_end are parameters, so solving many
-environments re-uses it.
+environments re-uses it. benchmarks/bench_direct.py measures each of these choices.
 """
 
 from __future__ import annotations
@@ -90,6 +100,8 @@ TARGET_STEP = 4.0
 MAX_ROUNDS = 6
 ROUND_ITER_MIN = 20
 HESSIANS = ("exact", "limited-memory")
+#: how one plan for a set of environments is judged: in the worst of them, or on average
+CASES = ("worst", "expected")
 
 
 @dataclass
@@ -111,10 +123,13 @@ class DirectPlanner:
     method = "direct"
 
     def __init__(self, problem: Problem, judge: Judge, cjudge: CasadiJudge, options: DirectOptions | None = None,
-                 members: list[CasadiJudge] | None = None, trust: TrustRegion | None = None):
+                 members: list[CasadiJudge] | None = None, trust: TrustRegion | None = None,
+                 samples: int = 1, case: str = "worst"):
         """`members`: an ensemble's CasADi judges (the objective becomes mean - pessimism * std
         of their logits); `trust`: the demonstrations' model for the trust-region constraint
-        (used when the problem sets trust_region)."""
+        (used when the problem sets trust_region); `samples` > 1: one plan for that many
+        environments at once (solve's `env_set`), its `case` "worst" (the target met in every
+        one) or "expected" (by the mean success probability over them); objective "target" only."""
         for cj in [cjudge] + list(members or []):
             if cj.horizon != problem.steps:
                 raise InfeasibleProblemError(f"the judge was built for N = {cj.horizon} steps, the problem has "
@@ -126,6 +141,12 @@ class DirectPlanner:
         self.options = options or DirectOptions()
         if self.options.hessian not in HESSIANS:
             raise ProblemError(f"hessian {self.options.hessian!r}: choose one of {', '.join(HESSIANS)}")
+        if case not in CASES:
+            raise ProblemError(f"case {case!r}: choose one of {', '.join(CASES)}")
+        if samples > 1 and problem.objective != "target":
+            raise ProblemError("planning for a set of environments needs objective = target (its judge constraint "
+                               "holds per environment)")
+        self.samples, self.case = samples, case
         self._build()
 
     def _build(self) -> None:
@@ -135,7 +156,7 @@ class DirectPlanner:
         zq, zv, za, zf = (cs.MX.sym(name, rows, cols) for name, rows, cols in (
             ("q", n, na), ("v", n, na), ("a", n, na), ("f", n + 1, nf)))
         q, v, a, f = SCALE_Q * zq, SCALE_V * zv, SCALE_A * za, SCALE_F * zf
-        env = cs.MX.sym("env", self.cjudge.n_env)
+        env = cs.MX.sym("env", self.cjudge.n_env, self.samples)
         self._fixed = ~np.isnan(pr.terminal_positions({k: 0.0 for k in pr.env_names}))  # axes with an end
         q_end = cs.MX.sym("q_end", int(self._fixed.sum()))
         qs = cs.vertcat(cs.DM(pr.vec("q0")).T if na > 1 else pr.vec("q0")[0], q)
@@ -151,17 +172,26 @@ class DirectPlanner:
         rate = cs.diff(f) if nf == 1 else f[1:, :] - f[:-1, :]
         effort = pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(rate) / dt
         x = cs.vertcat(cs.vec(zq), cs.vec(zv), cs.vec(za), cs.vec(zf))
-        params = [env, q_end]
+        params = [cs.vec(env), q_end]
         self._target = pr.objective == "target"
         if self._target:  # slack s >= 0 in logit units: logit + s >= target, s costs SLACK_WEIGHT (s + s^2)
             slack, x_ref = cs.MX.sym("slack"), cs.MX.sym("x_ref", x.size1())
             params.append(x_ref)
             effort += PROXIMITY_WEIGHT * cs.sumsqr(x - x_ref) + SLACK_WEIGHT * (slack + slack ** 2)
             x = cs.vertcat(x, slack)
-        logit = self.cjudge.fn(traj, env)[0] if not self.members else self._pessimistic(traj, env)
+        logits = [self.cjudge.fn(traj, env[:, k])[0] if not self.members else self._pessimistic(traj, env[:, k])
+                  for k in range(self.samples)]
+        # the judge's rows: one logit, one per environment of a set ("worst"), or the logit of the
+        # mean success probability over the set ("expected"; the 1/K of the means cancels)
+        if self.samples == 1 or self.case == "worst":
+            logit = cs.vertcat(*logits)
+        else:
+            ls = cs.vertcat(*logits)
+            logit = cs.log(cs.sum1(0.5 + 0.5 * cs.tanh(0.5 * ls))) - cs.log(cs.sum1(0.5 - 0.5 * cs.tanh(0.5 * ls)))
+        self._n_judge = logit.size1()
 
         def objective_and_constraints(z: cs.MX) -> tuple[cs.MX, cs.MX]:
-            """The NLP with the judge's logit given as z (the real one, or a stand-in for the Hessian)."""
+            """The NLP with the judge's rows given as z (the real ones, or stand-ins for the Hessian)."""
             obj = effort if self._target else effort + pr.P * softplus(-z)
             g = [g_vel, g_pos, g_term, z + slack if self._target else z]
             if pr.trust_region is not None:
@@ -170,19 +200,20 @@ class DirectPlanner:
 
         obj, g = objective_and_constraints(logit)
         p = cs.vertcat(*params)
-        self._logit_fn = cs.Function("logit", [x, p], [logit])
+        self._logit_fn = cs.Function("logit", [x, p], [cs.mmin(logit)])
         nlp = {"x": x, "p": p, "f": obj, "g": g}
         opts = {"ipopt.max_iter": self._round_iter(), "ipopt.tol": pr.tol, "ipopt.constr_viol_tol": 1e-9,
                 "ipopt.acceptable_iter": 0, "ipopt.print_level": self.options.print_level,
                 "ipopt.max_cpu_time": self.options.max_cpu_time, "ipopt.sb": "yes", "print_time": False}
-        z = cs.MX.sym("z")  # the judge's logit as a stand-in: derivatives by the chain rule through it
+        z = cs.MX.sym("z", self._n_judge)  # the judge's rows as stand-ins: derivatives by the chain rule
         obj_z, g_z = objective_and_constraints(z)
-        grad_logit = cs.gradient(logit, x)  # one reverse sweep of the judge
+        # one reverse sweep of the judge per row (CasADi's own Jacobian of the judge is many times dearer)
+        jac_logit = cs.vertcat(*[cs.gradient(logit[i], x).T for i in range(self._n_judge)])
         at_logit = lambda e: cs.substitute(e, z, logit)  # noqa: E731
-        opts["grad_f"] = cs.Function("grad_f", [x, p], [obj, at_logit(cs.gradient(obj_z, x) + cs.jacobian(obj_z, z) * grad_logit)],
-                                     ["x", "p"], ["f", "grad_f_x"])
-        opts["jac_g"] = cs.Function("jac_g", [x, p], [g, at_logit(cs.jacobian(g_z, x) + cs.mtimes(cs.jacobian(g_z, z), grad_logit.T))],
-                                    ["x", "p"], ["g", "jac_g_x"])
+        grad = cs.gradient(obj_z, x) + cs.mtimes(jac_logit.T, cs.jacobian(obj_z, z).T)
+        jac = cs.jacobian(g_z, x) + cs.mtimes(cs.jacobian(g_z, z), jac_logit)
+        opts["grad_f"] = cs.Function("grad_f", [x, p], [obj, at_logit(grad)], ["x", "p"], ["f", "grad_f_x"])
+        opts["jac_g"] = cs.Function("jac_g", [x, p], [g, at_logit(jac)], ["x", "p"], ["g", "jac_g_x"])
         if self.options.hessian == "limited-memory":
             opts["ipopt.hessian_approximation"] = "limited-memory"
         else:
@@ -205,10 +236,10 @@ class DirectPlanner:
         (which l4casadi cannot give, and which is indefinite) is left out; under -P log p its
         Gauss-Newton term P p (1 - p) ∇logit ∇logitᵀ takes its place. Under objective "target"
         the result is constant: one factorisation pattern, no judge call."""
-        z = cs.MX.sym("z")
+        z = cs.MX.sym("z", self._n_judge)
         obj, g = nlp_of(z)
         lam_f, lam_g = cs.MX.sym("lam_f"), cs.MX.sym("lam_g", g.size1())
-        hess = cs.substitute(cs.hessian(lam_f * obj + cs.dot(lam_g, g), x)[0], z, cs.DM(0.0))
+        hess = cs.substitute(cs.hessian(lam_f * obj + cs.dot(lam_g, g), x)[0], z, cs.DM.zeros(self._n_judge))
         if not self._target:
             grad = cs.gradient(logit, x)
             s = 0.5 + 0.5 * cs.tanh(0.5 * logit)
@@ -235,7 +266,10 @@ class DirectPlanner:
         if self._target:
             lb, ub = np.append(lb, 0.0), np.append(ub, floor - hard)
         self._lbx, self._ubx = lb, ub
-        self._lbg, self._ubg = np.append(np.zeros(self._n_eq), floor), np.append(np.zeros(self._n_eq), np.inf)
+        rows = np.full(self._n_judge, 1.0)
+        self._lbg = np.concatenate([np.zeros(self._n_eq), floor * rows])
+        self._ubg = np.concatenate([np.zeros(self._n_eq), np.inf * rows])
+        self._judge_rows = slice(self._n_eq, self._n_eq + self._n_judge)
         if pr.trust_region is not None:
             self._lbg, self._ubg = np.append(self._lbg, -np.inf), np.append(self._ubg, 1.0)
 
@@ -269,29 +303,36 @@ class DirectPlanner:
         f = x[3 * n * na:].reshape(nf, n + 1).T * SCALE_F
         return plan_from_parts(pr, q, v, f)
 
-    def solve(self, env: dict[str, float], guess: Plan | None = None) -> PlanResult:
-        """Solve for one environment; infeasible limits are reported without calling Ipopt."""
+    def solve(self, env: dict[str, float], guess: Plan | None = None,
+              env_set: list[dict[str, float]] | None = None) -> PlanResult:
+        """Solve for one environment; infeasible limits are reported without calling Ipopt.
+        `env_set` (as many as `samples`): judge the plan in each of these instead (the terminal
+        position still comes from `env`, what the user said)."""
         pr = self.problem
         env = pr.env_dict(env)
+        env_set = [pr.env_dict(e) for e in env_set] if env_set is not None else [env]
+        if len(env_set) != self.samples:
+            raise ProblemError(f"this direct solve plans for {self.samples} environment(s) at once, got {len(env_set)}")
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
         warm = "generator" if guess is not None else "min-jerk guess"
         guess = guess if guess is not None else default_guess(pr, env)
-        fixed = [judge_env(self.judge, env), pr.terminal_positions(env)[self._fixed]]
+        fixed = [np.concatenate([judge_env(self.judge, e) for e in env_set]), pr.terminal_positions(env)[self._fixed]]
         x = self._pack(guess)
         calls = ("nlp_g", "nlp_jac_g") + (() if self._target else ("nlp_f", "nlp_grad_f"))
         iterations = judge_calls = rounds = 0
-        target = self._lbg[-1]
+        target = self._lbg[self._judge_rows][0]
         lbg, ubx = self._lbg.copy(), self._ubx.copy()
         while True:
             p = np.concatenate(fixed + [x] if self._target else fixed)
             x0 = x
             if self._target:  # a reachable step of the target at a time, near the last plan (TARGET_STEP)
                 reached = float(self._logit_fn(np.append(x, 0.0), p))
-                lbg[-1] = min(target, reached + TARGET_STEP)
-                ubx[-1] = max(0.0, lbg[-1] - self._hard)
-                x0 = np.append(x, max(0.0, lbg[-1] - reached))
+                working = min(target, reached + TARGET_STEP)
+                lbg[self._judge_rows] = working
+                ubx[-1] = max(0.0, working - self._hard)
+                x0 = np.append(x, max(0.0, working - reached))
             sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
             stats = self.solver.stats()
             iterations += int(stats.get("iter_count", 0))
@@ -301,8 +342,8 @@ class DirectPlanner:
             if not self._target:
                 break
             reached = float(self._logit_fn(np.append(x, 0.0), p))
-            short = reached < lbg[-1] - 1e-3  # this step was out of reach: the judge's best is here
-            if short or lbg[-1] >= target or rounds >= MAX_ROUNDS or iterations >= pr.max_iter:
+            short = reached < working - 1e-3  # this step was out of reach: the judge's best is here
+            if short or working >= target or rounds >= MAX_ROUNDS or iterations >= pr.max_iter:
                 break
         elapsed = time.perf_counter() - t0
         ipopt_status = stats.get("return_status", "unknown")
@@ -326,6 +367,11 @@ class DirectPlanner:
             info.update(member_success=(1.0 / (1.0 + np.exp(-z))).tolist(), pessimistic_success=bound)
         else:
             bound = prob = float(1.0 / (1.0 + np.exp(-float(self.cjudge.fn(traj, je)[0]))))
+        if self.samples > 1:  # the plan's success probability over the set, as it was planned
+            each = [float(1.0 / (1.0 + np.exp(-float(self.cjudge.fn(traj, judge_env(self.judge, e))[0]))))
+                    for e in env_set]
+            bound = prob = min(each) if self.case == "worst" else float(np.mean(each))
+            info.update(env_case=self.case, env_set=env_set, env_set_success=each)
         if pr.p_min is not None:
             residuals["p_min"] = max(0.0, pr.p_min - bound)
         if pr.trust_region is not None:

@@ -26,8 +26,28 @@ from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.trajectory import PlanError
 
 METHODS = ("amortized", "direct", "cem")
+#: samples per environment variable given as a range "somewhere in here" (env_grid): its ends and
+#: middle, or five points where only one variable is uncertain
+GRID_POINTS = {1: 5}
+GRID_POINTS_DEFAULT = 3
 #: where the direct solve starts: the generator's plan where one covers the limits, or cold
 WARM_STARTS = ("generator", "none")
+def env_grid(nominal: dict[str, float], ranges: dict[str, tuple[float, float]], judge_reads: Sequence[str]) -> list[dict[str, float]]:
+    """The environments one plan is judged in when some variables are only known to lie in a
+    range: a grid over the ranges (ends included: a worst case over a box is usually at a corner),
+    the other variables at their nominal value. A range for a variable the judge does not read is
+    refused: it could not change the plan."""
+    unread = [k for k in ranges if k not in judge_reads]
+    if unread:
+        raise ProblemError(f"{', '.join(unread)} given as a range, but the judge does not read "
+                           f"{'it' if len(unread) == 1 else 'them'} (it reads {', '.join(judge_reads)}): give one value")
+    k = GRID_POINTS.get(len(ranges), GRID_POINTS_DEFAULT)
+    axes = {name: np.linspace(lo, hi, k) for name, (lo, hi) in ranges.items()}
+    grid = np.meshgrid(*axes.values(), indexing="ij")
+    return [{**nominal, **{name: float(g.flat[i]) for name, g in zip(axes, grid)}} for i in range(grid[0].size)] \
+        if ranges else [dict(nominal)]
+
+
 @dataclass(frozen=True)
 class ChosenModels:
     """The model files a problem's planners use and their weights hashes; cheap to find (no
@@ -91,6 +111,7 @@ class Planners:
     models_dir: str | Path = "models"
     generator_given: str | Path | None = None  # a generator named by the user is never swapped
     loaded: dict = field(default_factory=dict)  # generator path -> (Generator, meta), shared by with_limits copies
+    for_sets: dict = field(default_factory=dict)  # (samples, case) -> the direct solve for environment sets
 
     @classmethod
     def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
@@ -179,6 +200,14 @@ class Planners:
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
+    def _direct_for(self, samples: int, case: str) -> DirectPlanner:
+        """The direct solve for `samples` environments at once (built once per size and case)."""
+        key = (samples, case)
+        if key not in self.for_sets:
+            d = self.direct
+            self.for_sets[key] = DirectPlanner(d.problem, d.judge, d.cjudge, d.options, d.members, d.trust, samples, case)
+        return self.for_sets[key]
+
     def with_limits(self, **limits: float) -> "Planners":
         """The same judge under other position, velocity or force limits, without rebuilding the
         direct solver (it swaps its bounds). The generator is chosen as `load` chooses it (the
@@ -190,7 +219,7 @@ class Planners:
         problem = self.problem.with_overrides(**limits)
         chosen = choose_models(problem, self.methods, self.judge_path, self.generator_given, self.models_dir)
         out = dataclasses.replace(self, problem=problem, notes=list(self.notes), settings={}, families={},
-                                  descriptions={}, calibrators={})
+                                  descriptions={}, calibrators={}, for_sets={})
         gpath = chosen.generator
         if gpath is not None:
             if gpath not in self.loaded:
@@ -209,11 +238,13 @@ class Planners:
         out._settings(chosen)
         return out
 
-    def solve(self, env: dict[str, float], simulator=None, guess=None, warm_start: str = "generator") -> list[PlanResult]:
+    def solve(self, env: dict[str, float], simulator=None, guess=None, warm_start: str = "generator",
+              env_set: list[dict[str, float]] | None = None, case: str = "worst") -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so).
         `guess`: the direct solve's warm start instead of the generator's plan; `warm_start`
         "none": the direct solve starts cold, from its min-jerk guess, as with a new task or
-        limits no generator covers."""
+        limits no generator covers. `env_set` (env_grid): the direct solve plans for all of
+        them at once, in their worst `case` or on average; the others plan for `env`."""
         if warm_start not in WARM_STARTS:
             raise ProblemError(f"warm start {warm_start!r}: choose one of {', '.join(WARM_STARTS)}")
         from judgeopt.planners.calibration import inputs as calibration_inputs
@@ -230,7 +261,10 @@ class Planners:
             if "amortized" in self.methods:
                 results.append(r)
         if self.direct is not None:
-            results.append(self.direct.solve(env, guess=guess))
+            if env_set is not None and len(env_set) > 1:
+                results.append(self._direct_for(len(env_set), case).solve(env, guess=guess, env_set=env_set))
+            else:
+                results.append(self.direct.solve(env, guess=guess))
         if self.cem is not None:
             results.append(self.cem.solve(env))
         for r in results:

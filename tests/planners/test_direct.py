@@ -141,3 +141,49 @@ def test_a_bad_objective_or_target_is_one_clear_error():
         Problem(p_target=1.0)
     with pytest.raises(ProblemError, match="hessian 'bfgs'"):
         DirectPlanner(Problem(), None, type("J", (), {"horizon": 30, "n_env": 2})(), DirectOptions(hessian="bfgs"))
+
+
+# -- one plan for a set of environments ("somewhere in here") -------------------------------------
+def test_env_grid_spans_the_ranges_ends_included_and_refuses_what_the_judge_cannot_read():
+    from judgeopt.planners.solve import env_grid
+
+    one = env_grid({"y_obj": 0.2, "mu": 2.0}, {"mu": (1.5, 2.5)}, ("y_obj", "mu"))
+    assert [e["mu"] for e in one] == pytest.approx([1.5, 1.75, 2.0, 2.25, 2.5]) and {e["y_obj"] for e in one} == {0.2}
+    two = env_grid({"y_obj": 0.2, "mu": 2.0}, {"mu": (1.5, 2.5), "y_obj": (0.18, 0.22)}, ("y_obj", "mu"))
+    corners = {(y, m) for y in (0.18, 0.22) for m in (1.5, 2.5)}
+    assert len(two) == 9 and corners <= {(round(e["y_obj"], 9), round(e["mu"], 9)) for e in two}
+    with pytest.raises(ProblemError, match=r"^mu given as a range, but the judge does not read it \(it reads y_obj\)"):
+        env_grid({"y_obj": 0.2, "mu": 2.0}, {"mu": (1.5, 2.5)}, ("y_obj",))
+
+
+@pytest.mark.parametrize("case", ["worst", "expected"])
+def test_a_plan_for_a_set_meets_the_target_in_the_worst_case_or_on_average(judge, native, case):
+    """The constraint holds per environment (worst) or for the mean probability (expected): the
+    plan's probabilities over the set, each scored by the judge afterwards, say it did."""
+    from judgeopt.planners.direct import judge_env
+    from judgeopt.planners.solve import env_grid
+
+    problem = HARD.with_overrides(f_max=22.5, p_target=0.9)
+    sets = env_grid(ENV, {"mu": (2.0, 3.0), "y_obj": (0.24, 0.26)}, ("y_obj", "mu"))
+    r = DirectPlanner(problem, judge, native, samples=len(sets), case=case).solve(ENV, env_set=sets)
+    each = [float(judge.predict_proba(r.plan.as_array()[None], judge_env(judge, e)[None])[0]) for e in sets]
+    assert r.status == "solved" and r.max_constraint_violation < 1e-6 and r.plan.y[-1] == pytest.approx(0.25, abs=1e-9)
+    assert r.info["env_case"] == case and r.info["env_set_success"] == pytest.approx(each, abs=1e-6)
+    held = min(each) if case == "worst" else np.mean(each)
+    assert held >= 0.9 - 2e-3 and r.predicted_success == pytest.approx(held, abs=1e-6)
+
+
+def test_solve_plans_for_a_range_given_on_the_command_line(capsys):
+    import json
+
+    from judgeopt.cli import main
+
+    rc = main(["solve", "--method", "direct", "--mu", "1.5,2.5", "--y-obj", "0.2", "--no-simulate", "--json"])
+    out = json.loads(capsys.readouterr().out)
+    (r,) = out["results"]
+    assert rc == 0 and r["env_case"] == "worst" and [e["mu"] for e in r["env_set"]] == \
+        pytest.approx([1.5, 1.75, 2.0, 2.25, 2.5])
+    assert any("worst case over 5 environments (mu in [1.5, 2.5])" in n for n in out["notes"])
+    assert main(["solve", "--method", "direct", "--judge", "models/judge_yobj_only", "--mu", "1,2",
+                 "--no-simulate"]) == 2
+    assert "mu given as a range, but the judge does not read it" in capsys.readouterr().err
