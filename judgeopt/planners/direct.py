@@ -36,6 +36,7 @@ import numpy as np
 from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
+from judgeopt.planners.cold_start import cold_start
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, positions
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
@@ -316,8 +317,9 @@ class DirectPlanner:
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
-        warm = "generator" if guess is not None else "min-jerk guess"
-        guess = guess if guess is not None else default_guess(pr, env)
+        warm = "generator"
+        if guess is None:
+            guess, warm = cold_start(pr, env, self.judge, default_guess(pr, env), self._lbg[self._judge_rows][0])
         fixed = [np.concatenate([judge_env(self.judge, e) for e in env_set]), pr.terminal_positions(env)[self._fixed]]
         x = self._pack(guess)
         calls = ("nlp_g", "nlp_jac_g") + (() if self._target else ("nlp_f", "nlp_grad_f"))

@@ -1,0 +1,63 @@
+"""Where the direct solve starts when no generator gives it a plan (a new task, new limits).
+
+The min-jerk move (direct.default_guess) knows nothing of the task: a scrape from it starts
+where the judge is flat (p ~ 0 and no gradient to follow), and the solve stalls there. The task
+itself knows what a plausible motion looks like: its random demonstration commands. So where the judge
+does not already call the min-jerk move a success, the cold start is the best, by the judge, of
+it and a few such commands, each made to fit
+the problem (velocities clipped to their limits and integrated from the start by the shared
+model, forces clipped): one batched judge call, a few milliseconds.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from judgeopt.judge.model import Judge
+from judgeopt.planners.dynamics import plan_from_parts, positions
+from judgeopt.planners.problem import Problem
+from judgeopt.tasks import get_task
+from judgeopt.trajectory import Plan
+
+#: random demonstration commands tried beside the min-jerk move, and their seed (fixed: the same
+#: problem and environment always start from the same plan)
+CANDIDATES = 12
+SEED = 0
+
+
+def fit_to_limits(problem: Problem, values: np.ndarray) -> Plan:
+    """A (horizon + 1, channels) command made a plan of `problem`: its velocities clipped to the
+    limits and pinned at the start and end values, positions integrated from q0 (so the shared
+    model holds), forces clipped."""
+    task = get_task(problem.task)
+    cols = {c.name: i for i, c in enumerate(task.channels)}
+    pos = task.channels_of("position")
+    vel = {c.of: c.name for c in task.channels_of("velocity")}
+    qd0, qd_end = problem.vec("qdot0"), problem.vec("qdot_end")
+    lo, hi = problem.vec("qdot_min"), problem.vec("qdot_max")
+    qs, vs = [], []
+    for i, c in enumerate(pos):
+        v = np.clip(values[:, cols[vel[c.name]]], lo[i], hi[i])
+        v[0], v[-1] = qd0[i], qd_end[i]
+        vs.append(v)
+        qs.append(positions(problem.vec("q0")[i], v, problem.dt))
+    f = [np.clip(values[:, cols[c.name]], lo_f, hi_f) for c, lo_f, hi_f in
+         zip(task.channels_of("force"), problem.vec("f_min"), problem.vec("f_max"))]
+    return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
+
+
+def cold_start(problem: Problem, env: dict[str, float], judge: Judge, min_jerk: Plan,
+               target_logit: float = np.inf) -> tuple[Plan, str]:
+    """`min_jerk` where the judge already scores it at `target_logit`, else the judge's best of
+    it and CANDIDATES of the task's random commands fitted to the limits; and which it was."""
+    e = np.array([[env[k] for k in judge.config.env_names]])
+    if judge.predict_logit(min_jerk.as_array()[None], e)[0] >= target_logit:
+        return min_jerk, "min-jerk guess"
+    task = get_task(problem.task)
+    rng = np.random.default_rng(SEED)
+    full = {**task.env_ranges("sampled"), **env}
+    full = {k: (0.5 * (v[0] + v[1]) if isinstance(v, tuple) else float(v)) for k, v in full.items()}
+    plans = [min_jerk] + [fit_to_limits(problem, task.random_command(rng, full)) for _ in range(CANDIDATES)]
+    logits = judge.predict_logit(np.stack([p.as_array() for p in plans]), np.repeat(e, len(plans), axis=0))
+    best = int(np.argmax(logits))
+    return plans[best], "min-jerk guess" if best == 0 else f"best of {CANDIDATES} task commands"
