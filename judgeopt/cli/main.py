@@ -80,6 +80,11 @@ def cmd_tasks(args: argparse.Namespace) -> int:
         env = ", ".join(f"{v['name']} in [{v['physical'][0]:g}, {v['physical'][1]:g}]" for v in t["environment"])
         print(f"{t['name']}: {t['description']}\n  channels: {channels}\n  environment: {env}\n"
               f"  horizon: {t['horizon']} steps of {t['dt']:g} s")
+        if t["perturbations"]:  # what evaluate robustness replays under and collect --randomize draws
+            print("  perturbations: " + ", ".join(f"{p['name']} in [{p['physical'][0]:g}, {p['physical'][1]:g}]"
+                                                  f"{' ' + p['unit'] if p['unit'] not in ('', 'x') else ''}"
+                                                  f"{' (factor)' if p['unit'] == 'x' else ''}"
+                                                  for p in t["perturbations"]))
     return 0
 
 

@@ -159,3 +159,17 @@ def test_perturbations_are_declared_and_bad_ones_named():
         with pytest.raises(TaskError) as err:
             TASK.check_randomization(ranges)
         assert words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_tasks_lists_each_tasks_perturbations(capsys):
+    from judgeopt.cli import main
+
+    assert main(["tasks"]) == 0
+    text = capsys.readouterr().out
+    assert "perturbations: mu_factor in [0.1, 10] (factor), y_obj_offset in [-0.05, 0.05] m" in text
+    assert "kp_factor in [0.1, 5] (factor)" in text  # the scrape's
+    assert main(["tasks", "--json"]) == 0
+    import json
+
+    scoop = next(t for t in json.loads(capsys.readouterr().out) if t["name"] == "scoop")
+    assert {p["name"]: p["env"] for p in scoop["perturbations"]}["mu_factor"] == "mu"
