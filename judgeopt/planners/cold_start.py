@@ -1,6 +1,6 @@
 """Where the direct solve starts when no generator gives it a plan (a new task, new limits).
 
-The min-jerk move (direct.default_guess) knows nothing of the task: a scrape from it starts
+The min-jerk move (default_guess) knows nothing of the task: a scrape from it starts
 where the judge is flat (p ~ 0 and no gradient to follow), and the solve stalls there. The task
 itself knows what a plausible motion looks like: its random demonstration commands. So where the judge
 does not already call the min-jerk move a success, the cold start is the best, by the judge, of
@@ -23,6 +23,28 @@ from judgeopt.trajectory import Plan
 #: problem and environment always start from the same plan)
 CANDIDATES = 12
 SEED = 0
+
+
+def default_guess(problem: Problem, env: dict[str, float]) -> Plan:
+    """The documented warm start when no generator is available: per axis a minimum-jerk move
+    from q0 to q_end (a free end: the middle of the position limits) over the horizon (velocity
+    clipped to the limits), pressing at the middle of the force range."""
+    n, dt = problem.steps, problem.dt
+    s = np.linspace(0.0, 1.0, n + 1)
+    T = n * dt
+    ends = problem.terminal_positions(env)
+    q0, qd0, qd_end = problem.vec("q0"), problem.vec("qdot0"), problem.vec("qdot_end")
+    lo, hi = problem.vec("qdot_min"), problem.vec("qdot_max")
+    qs, vs = [], []
+    for i in range(problem.n_axes):
+        end = ends[i] if not np.isnan(ends[i]) else 0.5 * (problem.vec("q_min")[i] + problem.vec("q_max")[i])
+        d = end - q0[i]
+        v = np.clip(d / T * (30 * s**2 - 60 * s**3 + 30 * s**4), lo[i], hi[i])
+        v[0], v[-1] = qd0[i], qd_end[i]
+        qs.append(positions(q0[i], v, dt))
+        vs.append(v)
+    f = [np.full(n + 1, m) for m in 0.5 * (problem.vec("f_min") + problem.vec("f_max"))]
+    return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
 
 
 def fit_to_limits(problem: Problem, values: np.ndarray) -> Plan:
@@ -48,12 +70,15 @@ def fit_to_limits(problem: Problem, values: np.ndarray) -> Plan:
 
 def cold_start(problem: Problem, env: dict[str, float], judge: Judge, min_jerk: Plan,
                target_logit: float = np.inf) -> tuple[Plan, str]:
-    """`min_jerk` where the judge already scores it at `target_logit`, else the judge's best of
-    it and CANDIDATES of the task's random commands fitted to the limits; and which it was."""
+    """`min_jerk` where the judge already scores it at `target_logit` (or the task's commands
+    are for another horizon), else the judge's best of it and CANDIDATES of the task's random
+    commands fitted to the limits; and which it was."""
     e = np.array([[env[k] for k in judge.config.env_names]])
     if judge.predict_logit(min_jerk.as_array()[None], e)[0] >= target_logit:
         return min_jerk, "min-jerk guess"
     task = get_task(problem.task)
+    if (task.horizon, task.dt) != (problem.steps, problem.dt):  # its commands are for another horizon
+        return min_jerk, "min-jerk guess"
     rng = np.random.default_rng(SEED)
     full = {**task.env_ranges("sampled"), **env}
     full = {k: (0.5 * (v[0] + v[1]) if isinstance(v, tuple) else float(v)) for k, v in full.items()}

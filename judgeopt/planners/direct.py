@@ -36,8 +36,8 @@ import numpy as np
 from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
-from judgeopt.planners.cold_start import cold_start
-from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, positions
+from judgeopt.planners.cold_start import cold_start, default_guess
+from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
@@ -64,28 +64,6 @@ def softplus(z: cs.MX) -> cs.MX:
 def judge_env(judge: Judge, env: dict[str, float]) -> np.ndarray:
     """The judge's environment vector (it may read only some of the problem's variables)."""
     return np.array([env[k] for k in judge.config.env_names], dtype=float)
-
-
-def default_guess(problem: Problem, env: dict[str, float]) -> Plan:
-    """The documented warm start when no generator is available: per axis a minimum-jerk move
-    from q0 to q_end (a free end: the middle of the position limits) over the horizon (velocity
-    clipped to the limits), pressing at the middle of the force range."""
-    n, dt = problem.steps, problem.dt
-    s = np.linspace(0.0, 1.0, n + 1)
-    T = n * dt
-    ends = problem.terminal_positions(env)
-    q0, qd0, qd_end = problem.vec("q0"), problem.vec("qdot0"), problem.vec("qdot_end")
-    lo, hi = problem.vec("qdot_min"), problem.vec("qdot_max")
-    qs, vs = [], []
-    for i in range(problem.n_axes):
-        end = ends[i] if not np.isnan(ends[i]) else 0.5 * (problem.vec("q_min")[i] + problem.vec("q_max")[i])
-        d = end - q0[i]
-        v = np.clip(d / T * (30 * s**2 - 60 * s**3 + 30 * s**4), lo[i], hi[i])
-        v[0], v[-1] = qd0[i], qd_end[i]
-        qs.append(positions(q0[i], v, dt))
-        vs.append(v)
-    f = [np.full(n + 1, m) for m in 0.5 * (problem.vec("f_min") + problem.vec("f_max"))]
-    return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
 
 
 #: objective "target": weight of the squared change to the warm start (scaled variables, per
@@ -290,6 +268,25 @@ class DirectPlanner:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
         return pessimistic([m.fn(traj, env)[0] for m in self.members], self.problem.pessimism, cs.sqrt, cs.fmin, 1e-9)
 
+    def _reached(self, x: np.ndarray, fixed: list[np.ndarray]) -> float:
+        """The judge's logit (its worst row) at plan variables x."""
+        return float(self._logit_fn(np.append(x, 0.0), np.concatenate(fixed + [x])))
+
+    def _round(self, x: np.ndarray, fixed: list[np.ndarray], working: float | None, runs: list[dict]) -> np.ndarray:
+        """One Ipopt solve from x, its stats appended to `runs` (under "target": near x, the
+        judge's rows at least `working`; -inf: any, the nearest plan that holds the limits)."""
+        lbg, ubx, x0 = self._lbg, self._ubx, x
+        p = np.concatenate(fixed)
+        if working is not None:
+            lbg, ubx = lbg.copy(), ubx.copy()
+            lbg[self._judge_rows] = working
+            ubx[-1] = max(0.0, working - self._hard) if np.isfinite(working) else 0.0
+            p = np.concatenate(fixed + [x])
+            x0 = np.append(x, min(ubx[-1], max(0.0, working - self._reached(x, fixed))))
+        sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
+        runs.append(self.solver.stats())
+        return np.asarray(sol["x"]).ravel()[:self._n_plan]
+
     def _pack(self, plan: Plan) -> np.ndarray:
         q, v, f = (plan.values[:, plan.columns(kind)] for kind in ("position", "velocity", "force"))
         a = accelerations(v, plan.dt)
@@ -322,31 +319,27 @@ class DirectPlanner:
             guess, warm = cold_start(pr, env, self.judge, default_guess(pr, env), self._lbg[self._judge_rows][0])
         fixed = [np.concatenate([judge_env(self.judge, e) for e in env_set]), pr.terminal_positions(env)[self._fixed]]
         x = self._pack(guess)
-        calls = ("nlp_g", "nlp_jac_g") + (() if self._target else ("nlp_f", "nlp_grad_f"))
-        iterations = judge_calls = rounds = 0
         target = self._lbg[self._judge_rows][0]
-        lbg, ubx = self._lbg.copy(), self._ubx.copy()
-        while True:
-            p = np.concatenate(fixed + [x] if self._target else fixed)
-            x0 = x
-            if self._target:  # a reachable step of the target at a time, near the last plan (TARGET_STEP)
-                reached = float(self._logit_fn(np.append(x, 0.0), p))
-                working = min(target, reached + TARGET_STEP)
-                lbg[self._judge_rows] = working
-                ubx[-1] = max(0.0, working - self._hard)
-                x0 = np.append(x, max(0.0, working - reached))
-            sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
-            stats = self.solver.stats()
-            iterations += int(stats.get("iter_count", 0))
-            judge_calls += int(sum(stats.get(f"n_call_{k}", 0) for k in calls))
-            rounds += 1
-            x = np.asarray(sol["x"]).ravel()[:self._n_plan]
-            if not self._target:
-                break
-            reached = float(self._logit_fn(np.append(x, 0.0), p))
-            short = reached < working - 1e-3  # this step was out of reach: the judge's best is here
-            if short or working >= target or rounds >= MAX_ROUNDS or iterations >= pr.max_iter:
-                break
+        runs: list[dict] = []  # Ipopt's stats of each solve
+        if not self._target:
+            x = self._round(x, fixed, None, runs)
+        else:  # a reachable step of the target at a time, near the last plan (TARGET_STEP)
+            while True:
+                working = min(target, self._reached(x, fixed) + TARGET_STEP)
+                x = self._round(x, fixed, working, runs)
+                short = self._reached(x, fixed) < working - 1e-3  # out of reach: the judge's best is here
+                if short or working >= target or len(runs) >= MAX_ROUNDS \
+                        or sum(r["iter_count"] for r in runs) >= pr.max_iter:
+                    break
+            if STATUS.get(runs[-1].get("return_status"), "failed") != "solved" and pr.p_min is None:
+                # stopped mid-way: the nearest plan that holds every limit, whatever the judge says
+                x = self._round(x, fixed, -np.inf, runs)
+            reached = self._reached(x, fixed)
+        stats = runs[-1]
+        calls = ("nlp_g", "nlp_jac_g") + (() if self._target else ("nlp_f", "nlp_grad_f"))
+        iterations = sum(int(r.get("iter_count", 0)) for r in runs)
+        judge_calls = sum(int(r.get(f"n_call_{k}", 0)) for r in runs for k in calls)
+        rounds = len(runs)
         elapsed = time.perf_counter() - t0
         ipopt_status = stats.get("return_status", "unknown")
         status = STATUS.get(ipopt_status, "failed")

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 
 from judgeopt.files import REPO, resolve
-from judgeopt.planners.cold_start import cold_start, fit_to_limits
-from judgeopt.planners.direct import default_guess
+from judgeopt.planners.cold_start import cold_start, default_guess, fit_to_limits
 from judgeopt.planners.problem import load_problem
 from judgeopt.planners.result import constraint_residuals
 from judgeopt.tasks import get_task

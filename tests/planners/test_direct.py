@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from judgeopt.files import REPO
-from judgeopt.planners.direct import DirectOptions, DirectPlanner, default_guess
+from judgeopt.planners.cold_start import default_guess
+from judgeopt.planners.direct import DirectOptions, DirectPlanner
 from judgeopt.planners.problem import Problem, ProblemError, load_problem
 
 PROBLEMS = REPO / "judgeopt" / "tasks" / "scoop" / "problems"
@@ -44,18 +45,21 @@ def test_a_cold_start_reaches_the_target_and_stops_there(judge, native, p_target
     guess = default_guess(problem, ENV)
     p_guess = float(judge.predict_proba(guess.as_array()[None], np.array([[0.25, 3.0]]))[0])
     assert p_guess < p_target
-    r = DirectPlanner(problem, judge, native).solve(ENV)
+    planner = DirectPlanner(problem, judge, native)
+    r = planner.solve(ENV, guess=guess)
     assert r.status == "solved", r.message
     assert r.predicted_success == pytest.approx(p_target, abs=2e-3)
     assert r.max_constraint_violation < 1e-6, r.residuals
     assert r.plan.ydot.max() <= 0.4 + 1e-9 and r.plan.y[-1] == pytest.approx(0.25, abs=1e-9)
+    cold = planner.solve(ENV)  # from its own cold start (the task's commands): at least the target
+    assert cold.status == "solved" and cold.predicted_success >= p_target - 2e-3
 
 
 def test_a_start_that_meets_the_target_is_kept_and_converges_in_a_few_iterations(judge, native):
     """A warm start already above the target is a near-optimum: the plan changes little, in a few
     iterations (the paper's -log p took 58-139 from the same kind of start)."""
     problem = HARD.with_overrides(p_target=0.9)
-    first = DirectPlanner(problem, judge, native).solve(ENV)
+    first = DirectPlanner(problem, judge, native).solve(ENV, guess=default_guess(problem, ENV))
     again = DirectPlanner(problem.with_overrides(p_target=0.8), judge, native).solve(ENV, guess=first.plan)
     assert again.status == "solved" and again.iterations <= 12, (again.iterations, again.message)
     assert again.predicted_success >= 0.8

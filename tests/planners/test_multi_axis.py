@@ -10,7 +10,8 @@ import torch
 from judgeopt.judge.casadi_fn import build_casadi_judge
 from judgeopt.judge.model import Judge, JudgeConfig
 from judgeopt.planners.cem import CEMConfig, CEMPlanner
-from judgeopt.planners.direct import DirectPlanner, default_guess
+from judgeopt.planners.cold_start import default_guess
+from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner, Generator
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.result import constraint_residuals

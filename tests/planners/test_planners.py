@@ -10,7 +10,7 @@ import torch
 
 from judgeopt.files import REPO
 from judgeopt.cli import main
-from judgeopt.planners.direct import default_guess
+from judgeopt.planners.cold_start import default_guess
 from judgeopt.planners.dynamics import dynamics_residual, integrate
 from judgeopt.planners.generator import AmortizedPlanner, Generator
 from judgeopt.planners.generator_train import GeneratorTrainConfig, generator_loss, train_generator
