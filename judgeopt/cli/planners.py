@@ -46,7 +46,7 @@ def _parser_type(name: str):
         return _per_axis(_number_or_name)
     if name in AXIS_FIELDS + FORCE_FIELDS:
         return _per_axis(float)
-    if name in SECTIONS["models"]:
+    if name in SECTIONS["models"] or str(_FIELD_TYPES[name]) == "str":
         return str
     return int if str(_FIELD_TYPES[name]) == "int" else float
 

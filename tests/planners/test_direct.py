@@ -191,3 +191,16 @@ def test_solve_plans_for_a_range_given_on_the_command_line(capsys):
     assert main(["solve", "--method", "direct", "--judge", "models/judge_yobj_only", "--mu", "1,2",
                  "--no-simulate"]) == 2
     assert "mu given as a range, but the judge does not read it" in capsys.readouterr().err
+
+
+def test_the_objective_is_chosen_on_the_command_line(capsys):
+    import json
+
+    from judgeopt.cli import main
+
+    rc = main(["solve", "--method", "direct", "--objective", "log_p", "--y-obj", "0.2", "--no-simulate", "--json"])
+    (r,) = json.loads(capsys.readouterr().out)["results"]
+    assert rc == 0 and r["rounds"] == 1 and r["predicted_success"] > 0.99  # -log p drives the judge up
+    assert main(["solve", "--objective", "max", "--no-simulate"]) == 2
+    err = capsys.readouterr().err
+    assert "objective = 'max'" in err and err.strip().endswith("choose one of target, log_p")
