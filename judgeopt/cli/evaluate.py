@@ -81,10 +81,6 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    import csv
-    import io
-
-    from judgeopt.files import atomic_write, save_figure
     from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, PLANNERS, markdown_sweep, parse_limit_set, plot_sweep,
                                          random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
@@ -117,30 +113,38 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
     title = f"Held-out limit sets ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
     md = markdown_sweep(summary, title)
+    return _report(args, out / "sweep", md, summary, plot_sweep(summary, title), notes)
+
+
+def _report(args: argparse.Namespace, stem: Path, md: str, summary: list[dict], figure, notes: list[str]) -> int:
+    """An evaluation's Markdown, CSV (one row per summary entry) and figure at STEM.md/.csv/.png,
+    printed with its notes and the command that made it."""
+    import csv
+    import io
+
+    from judgeopt.files import atomic_write, save_figure
+
     buf = io.StringIO()
     w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
     w.writeheader()
     w.writerows(summary)
-    atomic_write(out / "sweep.md", md)
-    atomic_write(out / "sweep.csv", buf.getvalue())
-    png = save_figure(plot_sweep(summary, title), out / "sweep.png")
+    atomic_write(stem.with_suffix(".md"), md)
+    atomic_write(stem.with_suffix(".csv"), buf.getvalue())
+    png = save_figure(figure, stem.with_suffix(".png"))
     for note in notes:
         print(f"note: {note}")
     print(md)
     print("command: judgeopt evaluate " + " ".join(_argv(args)))
-    for f in (out / "sweep.md", out / "sweep.csv", png):
+    for f in (stem.with_suffix(".md"), stem.with_suffix(".csv"), png):
         print(f"wrote {f}")
     return 0
 
 
 def cmd_robustness(args: argparse.Namespace) -> int:
-    import csv
-    import io
-
     from judgeopt.evaluate.robustness import (DEFAULT_METHODS, markdown_robustness, plot_robustness, robustness_cases,
                                               robustness_rows, run_replays, summarise_robustness)
     from judgeopt.evaluate.tables import run_table
-    from judgeopt.files import atomic_write, resolve, save_figure
+    from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
     from judgeopt.tasks import get_task
 
@@ -164,20 +168,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     title = (f"Plans for the nominal world replayed in perturbed ones: {problem.name} (task {task.name}), "
              f"{args.n} environments ({_env_text(problem)}), seed {args.seed}, judge {problem.judge}")
     md = markdown_robustness(task, summary, title)
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
-    w.writeheader()
-    w.writerows(summary)
-    atomic_write(out / "robustness.md", md)
-    atomic_write(out / "robustness.csv", buf.getvalue())
-    png = save_figure(plot_robustness(task, summary, title), out / "robustness.png")
-    for note in notes:
-        print(f"note: {note}")
-    print(md)
-    print("command: judgeopt evaluate " + " ".join(_argv(args)))
-    for f in (out / "robustness.md", out / "robustness.csv", png):
-        print(f"wrote {f}")
-    return 0
+    return _report(args, out / "robustness", md, summary, plot_robustness(task, summary, title), notes)
 
 
 def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[float, float]]:
