@@ -143,9 +143,11 @@ def test_direct_p_min_constraint(judge):
     # without the judge in the objective the smoothest plan is judged a failure; p_min lifts it
     cj = build_casadi_judge(judge)
     env = {"y_obj": 0.25, "mu": 3.0}  # high friction: the smoothest plan presses with only 12.5 N
-    free = DirectPlanner(Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, P=0.0, objective="log_p"), judge, cj).solve(env)
-    # a lower target, so the hard p_min is what binds
-    held = DirectPlanner(Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, p_target=0.5, p_min=0.9), judge, cj).solve(env)
+    smooth = Problem(qdot_max=0.4, f_min=5.0, f_max=20.0)
+    free = DirectPlanner(smooth.with_overrides(P=0.0, objective="log_p"), judge, cj).solve(env)
+    # from the smoothest plan, under a lower target, so the hard p_min is what binds
+    held = DirectPlanner(smooth.with_overrides(p_target=0.5, p_min=0.9), judge, cj).solve(
+        env, guess=default_guess(smooth, env))
     assert free.predicted_success < 0.5
     assert held.status == "solved" and held.predicted_success == pytest.approx(0.9, abs=0.01)
     assert held.max_constraint_violation < 1e-6
