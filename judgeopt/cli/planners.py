@@ -433,7 +433,8 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     add_backend_argument(s)
     s.add_argument("--warm-start", choices=("generator", "none"), default="generator",
                    help="where the direct solve starts: generator (default: its plan, where a generator covers the "
-                   "limits) or none (cold, from a min-jerk move: as for a new task or new limits)")
+                   "limits) or none (cold, as for a new task or new limits: a min-jerk move, or where the judge calls that a "
+                   "failure its best of a few of the task's own commands)")
     s.add_argument("--env-case", dest="range_case", choices=("worst", "expected"), default="worst",
                    help="an environment variable given here as a range (--mu 1.5,2.5: somewhere in here): the direct "
                    "solve plans for the worst case over a grid of it (default) or for the expected success over the "
