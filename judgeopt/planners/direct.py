@@ -272,9 +272,11 @@ class DirectPlanner:
         """The judge's logit (its worst row) at plan variables x."""
         return float(self._logit_fn(np.append(x, 0.0), np.concatenate(fixed + [x])))
 
-    def _round(self, x: np.ndarray, fixed: list[np.ndarray], working: float | None, runs: list[dict]) -> np.ndarray:
+    def _round(self, x: np.ndarray, fixed: list[np.ndarray], working: float | None, runs: list[dict],
+               reached: float = 0.0) -> np.ndarray:
         """One Ipopt solve from x, its stats appended to `runs` (under "target": near x, the
-        judge's rows at least `working`; -inf: any, the nearest plan that holds the limits)."""
+        judge's rows at least `working`, -inf: any, the nearest plan that holds the limits;
+        `reached`: the judge's logit at x, where the slack starts)."""
         lbg, ubx, x0 = self._lbg, self._ubx, x
         p = np.concatenate(fixed)
         if working is not None:
@@ -282,7 +284,7 @@ class DirectPlanner:
             lbg[self._judge_rows] = working
             ubx[-1] = max(0.0, working - self._hard) if np.isfinite(working) else 0.0
             p = np.concatenate(fixed + [x])
-            x0 = np.append(x, min(ubx[-1], max(0.0, working - self._reached(x, fixed))))
+            x0 = np.append(x, min(ubx[-1], max(0.0, working - reached)))
         sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
         runs.append(self.solver.stats())
         return np.asarray(sol["x"]).ravel()[:self._n_plan]
@@ -324,17 +326,19 @@ class DirectPlanner:
         if not self._target:
             x = self._round(x, fixed, None, runs)
         else:  # a reachable step of the target at a time, near the last plan (TARGET_STEP)
+            reached = self._reached(x, fixed)
             while True:
-                working = min(target, self._reached(x, fixed) + TARGET_STEP)
-                x = self._round(x, fixed, working, runs)
-                short = self._reached(x, fixed) < working - 1e-3  # out of reach: the judge's best is here
+                working = min(target, reached + TARGET_STEP)
+                x = self._round(x, fixed, working, runs, reached)
+                reached = self._reached(x, fixed)
+                short = reached < working - 1e-3  # out of reach: the judge's best is here
                 if short or working >= target or len(runs) >= MAX_ROUNDS \
                         or sum(r["iter_count"] for r in runs) >= pr.max_iter:
                     break
             if STATUS.get(runs[-1].get("return_status"), "failed") != "solved" and pr.p_min is None:
                 # stopped mid-way: the nearest plan that holds every limit, whatever the judge says
-                x = self._round(x, fixed, -np.inf, runs)
-            reached = self._reached(x, fixed)
+                x = self._round(x, fixed, -np.inf, runs, reached)
+                reached = self._reached(x, fixed)
         stats = runs[-1]
         calls = ("nlp_g", "nlp_jac_g") + (() if self._target else ("nlp_f", "nlp_grad_f"))
         iterations = sum(int(r.get("iter_count", 0)) for r in runs)
