@@ -99,10 +99,13 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     problem = load_problem(resolve(args.problem))
     values: dict[str, Any] = {k[4:]: v for k, v in vars(args).items() if k.startswith("set_") and v is not None}
     values.update({k[4:]: v for k, v in vars(args).items() if k.startswith("env_") and v is not None})
+    from judgeopt.tasks import get_task
+
+    names = get_task(problem.task).env_names
     for name, value in args.env or []:
-        if name not in problem.environment:
+        if name not in names:
             raise CLIError(f"--env {name}: not an environment variable of task {problem.task!r} (it has "
-                           f"{', '.join(problem.environment)})")
+                           f"{', '.join(names)})")
         values[name] = value
     return problem.with_overrides(**values)
 
@@ -160,14 +163,6 @@ def cmd_solve(args: argparse.Namespace) -> int:
         problem.check_feasible(env)
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
-    if args.simulate:
-        from judgeopt.tasks import get_task
-
-        needed = get_task(problem.task).env_names
-        missing = [k for k in needed if k not in env]
-        if missing:
-            raise ProblemError(f"--simulate needs the environment variables {', '.join(needed)}; the problem lacks "
-                               f"{', '.join(missing)} (or pass --no-simulate)")
     fallback = None
     if args.method == "both" and not args.generator:
         from judgeopt.planners.solve import choose_models
@@ -253,6 +248,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
                           "results": [r.to_json() for r in results]}))
     else:
         envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
+        world = {k: v for k, v in problem.world_env(env).items() if k not in env}
+        if args.simulate and world:  # what the simulated world has besides what the planners read
+            envs += f"; simulated with {', '.join(f'{k} = {v:g}' for k, v in world.items())}"
         ends = ", ".join("free" if np.isnan(e) else f"{e:g}" for e in problem.terminal_positions(env))
         print(f"{problem.name} ({problem.task}): q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in "
               f"[{problem.f_min}, {problem.f_max}] N, q from {problem.q0} to {ends} m in "

@@ -46,7 +46,7 @@ def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simu
         plan = task.plan(task.random_command(np.random.default_rng([seed, first + i]), env))
         r = PlanResult("random", env, plan, None, "sampled", 0.0, constraint_residuals(problem, plan, env))
         if simulate:
-            r.simulated_success = bool(simulator(problem.task).simulate(plan, env).success)
+            r.simulated_success = bool(simulator(problem.task).simulate(plan, problem.world_env(env)).success)
         rows.append({**r.to_json(), "env_index": first + i})
     return rows
 

@@ -74,7 +74,7 @@ def nojudge_rows(problem: Problem, env: dict[str, float], sim, n: int, seed: int
                  "simulated_success": None}]
     rows = []
     for i, plan in enumerate(random_plans(problem, env, n, seed)):
-        out = sim.simulate(plan, env)
+        out = sim.simulate(plan, problem.world_env(env))
         rows.append({"method": "nojudge", "environment": env, "status": "sampled", "try": i,
                      "simulated_success": bool(out.success), "predicted_success": None,
                      "max_constraint_violation": 0.0, "solve_time_s": 0.0})
@@ -98,7 +98,7 @@ def search(problem: Problem, env: dict[str, float], sim, seed: int, cfg: SearchC
                       lambda k: np.clip(mean + std * rng.standard_normal((k, commands.dim)), 0.0, 1.0))
         scores = np.full(len(z), -np.inf)
         for j in range(len(z)):
-            out = sim.simulate(Plan.from_array(problem.dt, x[j], problem.channel_spec), env)
+            out = sim.simulate(Plan.from_array(problem.dt, x[j], problem.channel_spec), problem.world_env(env))
             tries += 1
             scores[j] = out.progress
             if out.success:

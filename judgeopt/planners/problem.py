@@ -3,11 +3,16 @@
 Problems live in TOML files in their task's folder (judgeopt/tasks/<task>/problems/; a shipped
 file is found as `problems/<name>.toml` from anywhere, judgeopt.files.resolve). A file may name
 `base = "other.toml"` and change only some values: `paper_sim_slow.toml` is `paper_sim.toml`
-with q̇_max = 0.4. Every field can also be overridden by name (`with_overrides`, and the CLI's
-`--qdot-max 0.4`, `--y-obj 0.2`, `--mu 2.5`).
+with q̇_max = 0.4. `base` is looked up next to the file, then as the CLI finds a name (a shipped
+`problems/NAME.toml`, with or without `problems/`), so a copied file keeps its base. Every field
+can also be overridden by name (`with_overrides`, and the CLI's `--qdot-max 0.4`, `--y-obj 0.2`,
+`--mu 2.5`).
 
 Environment values are a number (fixed) or a [lo, hi] range. Training the generator and
 evaluation sample ranges; a single solve uses a fixed value, else the range's midpoint.
+[environment] holds what the planners and the judge read; [world] the task's other variables,
+which only the simulated world has (paper_real.toml's judge reads y_obj, the simulator also
+needs mu); a variable in neither has the task's nominal value (`world_env`).
 """
 
 from __future__ import annotations
@@ -21,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from judgeopt.files import resolve
 from judgeopt.planners.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
@@ -123,6 +129,8 @@ class Problem:
     q_end: float | str | list[float | str] = Y_OBJ
     qdot_end: float | list[float] = 0.0
     environment: dict[str, EnvValue] = field(default_factory=lambda: get_task(DEFAULT_TASK).env_ranges())
+    # the task's variables the planners do not read, as the simulated world has them ([world])
+    world: dict[str, float] = field(default_factory=dict)
     # loss weights: eq. (3) P; eq. (4) Q (limits) and R (terminal) for the generator; the
     # smoothing terms (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s) keep the direct
     # solve away from bang-bang plans the controller cannot follow.
@@ -227,6 +235,15 @@ class Problem:
                     raise ProblemError(f"environment {k} = {list(v)}{where} must be [lo, hi] with lo <= hi")
             elif not math.isfinite(v):
                 raise ProblemError(f"environment {k} = {v!r}{where} must be a finite number")
+        for k, v in self.world.items():
+            if k not in task.env_names:
+                raise ProblemError(f"world {k}{where}: not a variable of task {task.name!r} (it has "
+                                   f"{', '.join(task.env_names)})")
+            if k in self.environment:
+                raise ProblemError(f"{k}{where} is in both [environment] (what the planners read) and [world] "
+                                   "(what only the simulated world has): keep one")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+                raise ProblemError(f"world {k} = {v!r}{where} must be a finite number (the simulated world has one value)")
         self.task_frame()
 
     def task_frame(self) -> TaskFrame:
@@ -274,6 +291,13 @@ class Problem:
     def channel_spec(self) -> tuple:
         """The task's channels (trajectory.Channel), for building plans."""
         return get_task(self.task).channels
+
+    def world_env(self, env: dict[str, float]) -> dict[str, float]:
+        """The simulated world's full environment for a planned `env`: the task's variables the
+        problem does not plan for from [world], else the task's nominal values."""
+        task = get_task(self.task)
+        full = {**task.env_defaults(), **self.world, **env}
+        return {k: float(full[k]) for k in task.env_names}
 
     def nominal_env(self) -> dict[str, float]:
         """Fixed values as given, ranges at their midpoint (what a single solve uses by default)."""
@@ -351,20 +375,31 @@ class Problem:
 
     # -- variants ----------------------------------------------------------------------
     def with_overrides(self, **values: Any) -> "Problem":
-        """A copy with fields replaced (None values ignored); environment variables by name."""
+        """A copy with fields replaced (None values ignored); environment variables by name: one the
+        problem plans for changes [environment], any other of the task's sets the simulated world's
+        value ([world])."""
         values = {k: v for k, v in values.items() if v is not None}
-        env = dict(self.environment)
+        env, world = dict(self.environment), dict(self.world)
         fields = {f.name for f in dataclasses.fields(self)}
+        task_vars = get_task(self.task).env_names
         changes: dict[str, Any] = {}
         for k, v in values.items():
-            if k in fields and k != "environment":
+            if k in fields and k not in ("environment", "world"):
                 changes[k] = v
             elif k in env:
                 env[k] = _env_value(k, v, self.source)
+            elif k in task_vars:
+                x = _env_value(k, v, self.source)
+                if isinstance(x, tuple):
+                    raise ProblemError(f"{k} = {v!r}: the planners of {self.source or self.name} do not read {k}, "
+                                       f"so it is the simulated world's one value; give a number (or add {k} to "
+                                       "[environment] to plan for a range)")
+                world[k] = x
             else:
-                raise ProblemError(f"unknown problem field {k!r}; fields: {sorted(fields - {'environment', 'source'})}, "
-                                   f"environment: {sorted(env)}")
-        return dataclasses.replace(self, environment=env, **changes)
+                raise ProblemError(f"unknown problem field {k!r}; fields: "
+                                   f"{sorted(fields - {'environment', 'world', 'source'})}, environment: {sorted(env)}"
+                                   f"{f', world: {sorted(set(task_vars) - set(env))}' if set(task_vars) - set(env) else ''}")
+        return dataclasses.replace(self, environment=env, world=world, **changes)
 
     def limits_key(self) -> dict[str, Any]:
         """Everything a trained generator depends on except the environment values."""
@@ -374,6 +409,8 @@ class Problem:
     def to_dict(self) -> dict[str, Any]:
         d = dataclasses.asdict(self)
         del d["frame"]  # where a plan goes, not what is planned: plan JSON records it (export.plan_record)
+        if not self.world:  # records of problems without one read as before
+            del d["world"]
         d["environment"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.environment.items()}
         return d
 
@@ -381,6 +418,8 @@ class Problem:
     def from_dict(cls, d: dict[str, Any]) -> "Problem":
         d = dict(d)
         d["environment"] = {k: _env_value(k, v, d.get("source", "")) for k, v in d.get("environment", {}).items()}
+        d["world"] = {k: float(v) if isinstance(v, int) and not isinstance(v, bool) else v
+                      for k, v in d.get("world", {}).items()}
         return cls(**d)
 
 
@@ -413,7 +452,7 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
         raise ProblemError(f"{path}: not valid TOML ({exc})") from None
     flat: dict[str, Any] = {}
     if "base" in raw:
-        flat = _read_toml((path.parent / str(raw.pop("base"))).resolve(), seen + (path,))
+        flat = _read_toml(_base_path(path, raw.pop("base")), seen + (path,))
     for key, value in raw.items():
         if key in SECTIONS:
             if not isinstance(value, dict):
@@ -426,6 +465,10 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [environment] must be a table")
             flat["environment"] = dict(value)  # a derived file replaces the whole environment
+        elif key == "world":
+            if not isinstance(value, dict):
+                raise ProblemError(f"{path}: [world] must be a table")
+            flat["world"] = {**flat.get("world", {}), **value}  # a derived file changes only the keys it gives
         elif key == "frame":
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [frame] must be a table")
@@ -433,9 +476,28 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
         elif key in ("name", "description", "task"):
             flat[key] = value
         else:
-            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, base, environment, frame, "
-                               f"{', '.join(f'[{s}]' for s in SECTIONS)}")
+            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, base, environment, world, "
+                               f"frame, {', '.join(f'[{s}]' for s in SECTIONS)}")
+    if "environment" in raw and "world" in flat:  # planned for here: the base's world value gives way
+        mine = raw.get("world", {})
+        flat["world"] = {k: v for k, v in flat["world"].items() if k not in flat["environment"] or k in mine}
     return flat
+
+
+def _base_path(path: Path, base: Any) -> Path:
+    """A problem file's `base`: next to the file, else as the command line finds a name (a shipped
+    `problems/NAME.toml`, given with or without `problems/`)."""
+    if not isinstance(base, str) or not base:
+        raise ProblemError(f"{path}: base = {base!r} must be a file name (e.g. \"problems/paper_sim.toml\")")
+    local = path.parent / base
+    if local.exists():
+        return local.resolve()
+    for name in (base, f"problems/{base}"):
+        found = resolve(name)
+        if found.exists():
+            return found.resolve()
+    raise ProblemError(f"{path}: base = {base!r} not found next to the file ({local}) nor among the shipped problems "
+                       "(problems/paper_sim.toml, problems/scrape.toml, ...)")
 
 
 def load_problem(path: str | Path) -> Problem:

@@ -276,10 +276,11 @@ class Planners:
                 r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
             assess(r)
         if simulator is not None:
+            world = self.problem.world_env(env)  # with the task's variables the planners do not read
             for r in results:
                 if r.plan is not None:
                     try:
-                        out = simulator.simulate(r.plan, env)
+                        out = simulator.simulate(r.plan, world)
                     except PlanError as exc:  # a plan the arm cannot be commanded to follow fails
                         r.simulated_success, r.info["sim_refused"] = False, str(exc)
                         continue

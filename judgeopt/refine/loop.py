@@ -92,7 +92,7 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
     sim = simulator(problem.task)
     rows = []
     for i, env, lim, r in _solved(problem, methods, judge, generator, envs, limits):
-        out = sim.simulate(r.plan, env)
+        out = sim.simulate(r.plan, problem.world_env(env))
         rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
                      "limits": lim, "command": r.plan.as_array().tolist(), "response": out.response.tolist(),
                      "success": bool(out.success), "predicted": r.predicted_success,

@@ -28,19 +28,29 @@ class EnvironmentRangeError(ValueError):
 
 @dataclass(frozen=True)
 class EnvVar:
-    """An environment variable: its physical range (what the simulator accepts) and the range
-    demonstrations are drawn from by default."""
+    """An environment variable: its physical range (what the simulator accepts), the range
+    demonstrations are drawn from by default, and the value a simulated world has where a
+    problem does not give it (a judge that does not read the variable still needs a world
+    that has one)."""
 
     name: str
     unit: str
     physical: tuple[float, float]
     sampled: tuple[float, float]
     description: str = ""
+    nominal: float | None = None  # None: the sampled range's midpoint
 
     def __post_init__(self) -> None:
         lo, hi = self.physical
         if not (lo <= self.sampled[0] <= self.sampled[1] <= hi):
             raise TaskError(f"environment variable {self.name!r}: sampled range {self.sampled} not within {self.physical}")
+        if not lo <= self.default <= hi:
+            raise TaskError(f"environment variable {self.name!r}: nominal {self.nominal} not within {self.physical}")
+
+    @property
+    def default(self) -> float:
+        """The simulated world's value where a problem leaves the variable out."""
+        return float(self.nominal) if self.nominal is not None else 0.5 * (self.sampled[0] + self.sampled[1])
 
 
 @dataclass(frozen=True)
@@ -183,6 +193,10 @@ class Task(ABC):
 
     def env_ranges(self, which: str = "sampled") -> dict[str, tuple[float, float]]:
         return {v.name: getattr(v, which) for v in self.env_vars}
+
+    def env_defaults(self) -> dict[str, float]:
+        """Each variable's value in a simulated world where a problem does not give it."""
+        return {v.name: v.default for v in self.env_vars}
 
     # -- checks ----------------------------------------------------------------------------
     def check_env(self, env: Mapping[str, float]) -> dict[str, float]:

@@ -1,0 +1,27 @@
+"""`judgeopt solve`'s problem options: the simulated world's values by name."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from judgeopt.cli import main
+from judgeopt.cli.main import build_parser
+from judgeopt.cli.planners import problem_from_args
+
+
+def solve_parser() -> argparse.ArgumentParser:
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    return sub.choices["solve"]
+
+
+@pytest.mark.parametrize("argv", [["--mu", "2"], ["--env", "mu=2"]])
+def test_a_variable_the_judge_does_not_read_sets_the_simulated_world(argv):
+    problem = problem_from_args(solve_parser().parse_args(["--problem", "problems/paper_real.toml", *argv]))
+    assert problem.environment == {"y_obj": 0.246} and problem.world == {"mu": 2.0}
+
+
+def test_a_variable_of_no_task_is_refused(capsys):
+    assert main(["solve", "--problem", "problems/paper_real.toml", "--env", "x_obj=0.1", "--no-simulate"]) == 2
+    assert "not an environment variable of task 'scoop'" in capsys.readouterr().err
