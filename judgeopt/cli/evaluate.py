@@ -109,7 +109,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     for rs in results.values():  # with the calibration there is now (cached plans may predate it)
         calibrate_rows(rs, calibrators, problem.env_names)
         reassess(rs)
-    summary = summarise_sweep(sets, rows, results)
+    summary = summarise_sweep(sets, rows, results, args.methods or PLANNERS)
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
     title = f"Held-out limit sets ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
     md = markdown_sweep(summary, title)

@@ -189,8 +189,11 @@ def cmd_inspect(args: argparse.Namespace) -> int:
 
 
 def format_dataset(path: str, s: dict[str, Any]) -> str:
+    # what a dataset's maker recorded (import-demos records no seed or version): the parts present
+    made = [f"{label}{s[k]}" for k, label in (("source", "source: "), ("seed", "seed "), ("package_version", "judgeopt "))
+            if s.get(k) is not None]
     lines = [f"{path}",
-             f"  demonstrations : {s['n']}  (source: {s['source']}, seed {s['seed']}, judgeopt {s['package_version']})",
+             f"  demonstrations : {s['n']}" + (f"  ({', '.join(made)})" if made else ""),
              f"  success ratio  : {s['success_ratio']:.3f}",
              f"  horizon, dt    : {s['horizon']} samples after the start, {s['dt']} s"]
     lines += [f"  {name:<15}: {rng[0]:.4g} .. {rng[1]:.4g}" for name, rng in s["env_range"].items()]
@@ -201,7 +204,9 @@ def format_dataset(path: str, s: dict[str, Any]) -> str:
             lines.append(f"    {env}  n={row['n']:<5} success {row['success_ratio']:.3f}")
     lines += [f"  randomized     : {name} {rng[0]:.4g} .. {rng[1]:.4g}" for name, rng in s.get("randomized", {}).items()
               if rng is not None]
-    lines += [f"  errors         : {s['errors']}", f"  made by        : {s['command']}"]
+    lines.append(f"  errors         : {s['errors']}")
+    if s.get("command"):
+        lines.append(f"  made by        : {s['command']}")
     return "\n".join(lines)
 
 

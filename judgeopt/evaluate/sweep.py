@@ -108,8 +108,10 @@ def _mean(values) -> float | None:
     return float(np.mean(values)) if values else None
 
 
-def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
-    """One line per (limit set, planner), with the set's feasibility figures repeated."""
+def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, list[dict]],
+                    planners=PLANNERS) -> list[dict]:
+    """One line per (limit set, planner asked for), with the set's feasibility figures repeated."""
+    asked = [m for m in PLANNERS if m in planners]
     out = []
     for ls in sets:
         mine = {r.method: _by_env(results[r.key]) for r in rows if r.name == ls.label}
@@ -125,8 +127,8 @@ def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, li
                 "feasible_found": len(found), "none_found": len(none_found),
                 "search_tries_where_none_found": int(min(tries)) if tries else None,
                 "nojudge_success_pct": 100 * _mean(nojudge) if nojudge else None}
-        for m in PLANNERS:
-            if m not in mine:
+        for m in asked:
+            if m not in mine:  # asked for, and no generator covers the limits
                 out.append({**base, "method": m, "planned": 0})
                 continue
             res = {e: rs[0] for e, rs in mine[m].items() if rs[0].get("success_probability") is not None}
@@ -185,21 +187,22 @@ def plot_sweep(summary: list[dict], title: str) -> Figure:
     from matplotlib.figure import Figure
 
     sets = list(dict.fromkeys(s["limit_set"] for s in summary))
+    methods = [m for m in PLANNERS if any(s["method"] == m for s in summary)]
     fig = Figure(figsize=(12, 4))
     axes = fig.subplots(1, 2)
-    width = 0.8 / (len(PLANNERS) + 1)
+    width = 0.8 / (len(methods) + 1)
     x = np.arange(len(sets))
-    for j, m in enumerate(PLANNERS):
+    for j, m in enumerate(methods):
         ss = [next((s for s in summary if s["limit_set"] == ls and s["method"] == m), {}) for ls in sets]
         axes[0].bar(x + j * width, [s.get("success_where_feasible_pct") or 0 for s in ss], width, label=m)
         axes[1].bar(x + j * width, [s.get("unlikely_where_none_found_pct") or 0 for s in ss], width, label=m)
     first = [next(s for s in summary if s["limit_set"] == ls) for ls in sets]
-    axes[0].bar(x + len(PLANNERS) * width, [s["nojudge_success_pct"] or 0 for s in first], width, label="no judge",
+    axes[0].bar(x + len(methods) * width, [s["nojudge_success_pct"] or 0 for s in first], width, label="no judge",
                 color="0.6")
     axes[0].set_ylabel("success where a successful plan was found [%]")
     axes[1].set_ylabel("verdict 'unlikely' where none was found [%]")
     for ax in axes:
-        ax.set_xticks(x + width * len(PLANNERS) / 2, sets, rotation=20, ha="right", fontsize=7)
+        ax.set_xticks(x + width * len(methods) / 2, sets, rotation=20, ha="right", fontsize=7)
         ax.set_ylim(0, 105)
         ax.legend(fontsize=7)
     fig.suptitle(title, fontsize=9)

@@ -36,6 +36,20 @@ def test_inspect_prints_a_summary(tiny, capsys):
     assert "success ratio  : 0.500" in text and "y_obj=0.1" in text
 
 
+def test_inspect_shows_what_made_an_imported_dataset_and_never_none(tmp_path, capsys):
+    x = np.zeros((2, 31, 3))
+    meta = {"source": "import-demos", "command": "judgeopt import-demos rec/ --out x.h5"}  # no seed, no version
+    ds = D.Dataset(x, x.copy(), np.array([1, 0]), np.array([[0.246], [0.246]]), 0.05, ("y_obj",), meta=meta)
+    assert main(["inspect", str(D.save(ds, tmp_path / "imported.h5"))]) == 0
+    text = capsys.readouterr().out
+    assert "None" not in text and "(source: import-demos)" in text
+    assert "made by        : judgeopt import-demos rec/ --out x.h5" in text
+    D.save(D.Dataset(x, x.copy(), np.array([1, 0]), np.array([[0.246], [0.246]]), 0.05, ("y_obj",)), tmp_path / "bare.h5")
+    assert main(["inspect", str(tmp_path / "bare.h5")]) == 0
+    text = capsys.readouterr().out
+    assert "None" not in text and "made by" not in text
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [

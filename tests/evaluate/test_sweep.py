@@ -93,6 +93,20 @@ def test_summary_counts_feasibility_verdicts_and_the_no_judge_rate():
     assert summary["cem"]["unlikely_where_none_found_pct"] == 0 and d["nojudge_success_pct"] == 50
 
 
+def test_only_the_methods_asked_for_are_reported(monkeypatch, capsys, tmp_path):
+    import judgeopt.evaluate.tables as tables
+
+    def fake_run_table(problem, rows, n, seed, out, **kwargs):  # one planned, replayed environment per row
+        return {r.key: [{"env_index": 0, "status": "solved", "success_probability": 0.9, "simulated_success": True,
+                         "verdict": "likely", "probability_source": "judge", "tries": 1}] for r in rows}
+
+    monkeypatch.setattr(tables, "run_table", fake_run_table)
+    assert main(["evaluate", "sweep", "--methods", "direct", "--limits", "f_max=20", "--n", "1", "--quiet",
+                 "--no-baselines", "--out", str(tmp_path / "sweep")]) == 0
+    table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| f_max 20")]
+    assert len(table) == 1 and "| direct |" in table[0]
+
+
 @pytest.mark.parametrize("argv, message", [
     (["evaluate", "sweep", "--vary", "mu=3,1"], "lower bound first"),
     (["evaluate", "sweep", "--vary", "mu=1,9"], "physical range"),
