@@ -1,12 +1,14 @@
-"""Recorded demonstrations (CSV, robomimic-style HDF5, LeRobot v3) into the dataset format, checked sample by sample.
+"""Recorded demonstrations (CSV, robomimic-style HDF5, LeRobot v3, ROS 2 MCAP bags) into the dataset format,
+checked sample by sample.
 
 Every reader turns its input into `RawDemo`s (per-sample arrays, environment values, a label and
 a way to say where each value came from); one checker (`judgeopt.data.recording.check`) validates
 them, crops them to their window and resamples them to the planner's period, so every format is
 held to the same rules and its messages name the file and the exact place (CSV: row and column;
 HDF5: demo group and field; LeRobot: data file, episode, row and field). A folder with
-`meta/info.json` is read as a LeRobot dataset (`judgeopt.data.lerobot`), a `.h5`/`.hdf5` file as
-HDF5, anything else as CSV.
+`meta/info.json` is read as a LeRobot dataset (`judgeopt.data.lerobot`), a ROS 2 bag (a folder
+with metadata.yaml, or a `.mcap` file) by `judgeopt.data.ros2`, a `.h5`/`.hdf5` file as HDF5,
+anything else as CSV.
 
 Channels are the task's (`ImportSpec.task`, default the scoop: y, ydot, f): every position and
 force channel is required, the velocities are optional (derived from their positions). Below,
@@ -50,6 +52,14 @@ is looked up only where it points (dataset at PATH, or an attribute/`env_args` k
 PATH). A (T, k) array with k > 1 needs a column. A bad demo group is reported and the others
 in the file are imported; a bad CSV file is skipped whole.
 
+ROS 2 bags (rosbag2 with MCAP storage, read with `rosbags`, extra `judgeopt[ros]`): the command's
+`--topics` (`ImportSpec.ros_topics`) names a geometry_msgs/msg/PoseStamped topic and axis for
+each position and a WrenchStamped topic and axis for each force, e.g.
+`y=/tool/pose:y,f=/ft/wrench:z`; optionally `episode=TOPIC` (each message starts a
+demonstration; else one bag, one demonstration), `label=TOPIC` (std_msgs Bool/String) and an
+environment value per topic. Time is the header stamp; each stream keeps its own rate. Labels
+and environment values a bag lacks come from `--labels`/`--env`. Details in `judgeopt.data.ros2`.
+
 Which part of a recording is kept (`ImportSpec` start/end/align/..., the command's flags):
 `--start`/`--end` S crop it (seconds after its first time stamp); `--align contact` starts it
 `--pre-contact` s (default 0.1) before the first sample where a force channel's magnitude
@@ -81,8 +91,10 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from judgeopt.data.dataset import Dataset
+from judgeopt.data.labels import FILE_COLUMNS, LABEL_COLUMNS
 from judgeopt.data.lerobot import LEROBOT_LABEL_HINT, is_lerobot, lerobot_demos
-from judgeopt.data.recording import (LABELS, LIMITS, ImportError_, ImportSpec, RawDemo, check, parse_keys,
+from judgeopt.data.ros2 import bag_demos, is_bag
+from judgeopt.data.recording import (LABELS, LIMITS, Checked, ImportError_, ImportSpec, RawDemo, check, parse_keys,
                                      refuse_done_labels, series_label, split_key)
 from judgeopt.trajectory import CHANNELS
 
@@ -90,8 +102,8 @@ __all__ = ["LABELS", "LIMITS", "HDF5_SUFFIXES", "ImportError_", "ImportSpec", "R
            "import_csv", "parse_hdf5_keys"]
 
 HDF5_SUFFIXES = (".h5", ".hdf5")
-#: the good demonstrations of one file: (demo id, (N + 1, channels) array, label, environment values)
-Good = list[tuple[str, np.ndarray, int, np.ndarray]]
+#: the good demonstrations of one file: (demo id, the checked demonstration)
+Good = list[tuple[str, Checked]]
 #: what to pass instead when an HDF5 file's labels all come from `dones`
 HDF5_LABEL_HINT = ("give each demo group a 'success' attribute, map a success flag with --hdf5-keys success=NAME, "
                    "or label from dense rewards with --success-threshold X")
@@ -110,50 +122,80 @@ def _read(path: Path) -> tuple[list[str], list[list[str]]]:
 
 
 def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
-    """Parse a CSV file into raw demonstrations (numbers and labels parsed, nothing else checked)."""
+    """Parse a CSV file into raw demonstrations (numbers and labels parsed, nothing else checked).
+    A channel with empty cells was recorded at its own rate: its rows with a value are its samples."""
     header, rows = _read(path)
-    missing = [c for c in spec.required + spec.env_names if c not in header]
+    missing = [c for c in spec.required if spec.column(c) not in header]
+    if missing and any(c.strip().lower() in FILE_COLUMNS for c in header) and any(
+            c.strip().lower() in LABEL_COLUMNS for c in header):
+        raise ImportError_(f"{path}: a labels file, not a recording; pass it with --labels {path}")
     if missing:
-        raise ImportError_(f"{path}: missing column(s) {missing}; the header has {header}")
-    col = {h: i for i, h in enumerate(header)}
-    numeric = ["t", *spec.names("position", "force"), *spec.env_names] + [
-        c for c in spec.names("velocity") if c in col]
+        named = [f"{c}={spec.column(c)}" if c in spec.columns else c for c in missing]
+        raise ImportError_(f"{path}: missing column(s) {named}; the header has {header}; map them with "
+                           f"--columns {','.join(f'{c}=COLUMN' for c in missing)}")
+    col = {name: header.index(spec.column(name)) for name in
+           ("demo_id", "label", "t", *spec.names("position", "force", "velocity"), *spec.env_names)
+           if spec.column(name) in header}
+    numeric = ["t", *spec.names("position", "force"), *(c for c in spec.names("velocity") if c in col),
+               *(c for c in spec.env_names if c in col and c not in spec.env_values)]
     groups: dict[str, list[tuple[int, list[str]]]] = {}
     for r, row in enumerate(rows, start=2):  # row numbers as a spreadsheet shows them
         if len(row) != len(header):
             raise ImportError_(f"{path}, row {r}: {len(row)} fields, the header has {len(header)}")
         key = row[col["demo_id"]].strip() if "demo_id" in col else path.stem
         groups.setdefault(key, []).append((r, row))
-    out = []
-    for key, items in groups.items():
-        values = {}
-        for c in numeric:
-            v = []
-            for r, row in items:
-                try:
-                    v.append(float(row[col[c]]))
-                except ValueError:
-                    raise ImportError_(f"{path}, row {r}, column {c!r}: {row[col[c]]!r} is not a number") from None
-            values[c] = np.array(v)
+    return [_csv_demo(path, spec, key, items, col, numeric) for key, items in groups.items()]
+
+
+def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[int, list[str]]], col: dict[str, int],
+              numeric: list[str]) -> RawDemo:
+    values: dict[str, np.ndarray] = {}
+    rows_of: dict[str, np.ndarray] = {}  # per field: the item indices holding its values
+    for c in numeric:
+        v, at = [], []
+        for k, (r, row) in enumerate(items):
+            cell = row[col[c]].strip()
+            if not cell and c != "t":
+                continue
+            try:
+                v.append(float(cell))
+            except ValueError:
+                raise ImportError_(f"{path}, row {r}, column {spec.column(c)!r}: {row[col[c]]!r} is not a number"
+                                   ) from None
+            at.append(k)
+        if not v:
+            raise ImportError_(f"{path}: demonstration {key!r}: column {spec.column(c)!r} is empty")
+        values[c], rows_of[c] = np.array(v), np.array(at)
+    label = None
+    if spec.labels is None:
         labels = set()
         for r, row in items:
             lab = row[col["label"]].strip().lower()
+            if not lab:
+                continue
             if lab not in LABELS:
-                raise ImportError_(f"{path}, row {r}, column 'label': {row[col['label']]!r} is not success/failure")
+                raise ImportError_(f"{path}, row {r}, column {spec.column('label')!r}: {row[col['label']]!r} is not "
+                                   "success/failure")
             labels.add(LABELS[lab])
-        if len(labels) > 1:
-            raise ImportError_(f"{path}: demonstration {key!r} has both labels; a demonstration has one outcome")
+        if len(labels) != 1:
+            raise ImportError_(f"{path}: demonstration {key!r} has " + ("both labels; a demonstration has one outcome"
+                               if labels else "no label; fill the label column or give --labels FILE"))
+        label = labels.pop()
+    t = values["t"]
+    times = {c: t[rows_of[c]] for c in values if c != "t" and len(rows_of[c]) != len(items)}
 
-        def where(c: str, i: int, items=items) -> str:
-            return f"{path}, row {items[i][0]}, column {c!r}"
+    def where(c: str, i: int) -> str:
+        rows = rows_of.get(c, rows_of["t"])
+        return f"{path}, row {items[int(rows[i])][0]}, column {spec.column(c)!r}"
 
-        def shown(c: str, i: int, items=items) -> str:
-            return repr(items[i][1][col[c]])
+    def shown(c: str, i: int) -> str:
+        rows = rows_of.get(c, rows_of["t"])
+        return repr(items[int(rows[i])][1][col[c]])
 
-        out.append(RawDemo(str(path), f"demonstration {key!r}", f"{path.name}:{key}",
-                           {c: values[c] for c in ("t", *spec.names("position", "force", "velocity")) if c in values},
-                           {c: values[c] for c in spec.env_names}, labels.pop(), where, shown))
-    return out
+    channels = ("t", *spec.names("position", "force", "velocity"))
+    return RawDemo(str(path), f"demonstration {key!r}", f"{path.name}:{key}",
+                   {c: values[c] for c in channels if c in values},
+                   {c: values[c] for c in spec.env_names if c in values}, label, where, shown, times=times)
 
 
 # -- HDF5 (robomimic-style) -------------------------------------------------------------------------
@@ -329,14 +371,14 @@ def _hdf5_raw(d: _H5Demo, spec: ImportSpec) -> RawDemo:
             raise d.fail("t", f"sample period {found[1]} = {step:g} s is not a positive number")
         series["t"] = np.arange(n) * step
     env: dict[str, np.ndarray] = {}
-    for name in spec.env_names:
+    for name in (n for n in spec.env_names if n not in spec.env_values):
         found = d.value(name)
         if found is None:
             raise d.fail(name, f"no environment value {d.keys.get(name, name)!r}: not an attribute of the demo "
                          "group, a dataset, a key of env_args or an attribute of 'data'; map one with "
                          f"--hdf5-keys {name}=NAME")
         env[name], desc[name] = _number(d, name, *found), found[1]
-    label, done = _label(d, spec.success_threshold)
+    label, done = (None, "") if spec.labels is not None else _label(d, spec.success_threshold)
 
     def where(c: str, i: int) -> str:
         at = f", sample {i}" if len(series.get(c, env.get(c, ()))) > 1 else ""
@@ -418,17 +460,23 @@ def _checked(raws: Sequence[RawDemo], spec: ImportSpec, origin: str, hint: str) 
     good, ok, errors = [], [], []
     for raw in raws:
         try:
-            x, label, env = check(raw, spec)
+            good.append((raw.demo_id, check(raw, spec)))
         except ImportError_ as exc:
             errors.append(str(exc))
             continue
-        good.append((raw.demo_id, x, label, env))
         ok.append(raw)
     refused = refuse_done_labels(origin, ok, hint)
     return ([], errors + [refused]) if refused else (good, errors)
 
 
 def _file(path: Path, spec: ImportSpec) -> tuple[Good, list[str]]:
+    if is_bag(path):
+        try:
+            raws, errors = bag_demos(path, spec)
+        except ImportError_ as exc:
+            return [], [str(exc)]
+        good, bad = _checked(raws, spec, str(path), "")
+        return good, errors + bad
     if is_lerobot(path):
         try:
             raws, errors = lerobot_demos(path, spec)
@@ -439,38 +487,62 @@ def _file(path: Path, spec: ImportSpec) -> tuple[Good, list[str]]:
     if path.suffix.lower() in HDF5_SUFFIXES:
         return _hdf5_file(path, spec)
     try:  # a CSV file is imported whole or not at all
-        good = []
-        for raw in _csv_demos(path, spec):
-            x, label, env = check(raw, spec)
-            good.append((raw.demo_id, x, label, env))
-        return good, []
+        return [(raw.demo_id, check(raw, spec)) for raw in _csv_demos(path, spec)], []
     except ImportError_ as exc:
         return [], [str(exc)]
 
 
 def import_demos(paths: Sequence[str | Path], spec: ImportSpec) -> tuple[Dataset | None, list[str]]:
     """Every good demonstration from `paths` (CSV or HDF5 by suffix), and one message per bad
-    CSV file or HDF5 demo group (never raises for bad input). `meta["files_imported"]` counts
-    the files that gave at least one demonstration."""
-    xs, labels, envs, errors, ids = [], [], [], [], []
+    CSV file or HDF5 demo group, and per labels-file row naming no recording (never raises for
+    bad input). `meta["files_imported"]` counts the files that gave at least one demonstration;
+    `meta["import"]` holds what was measured on each (noise, smoothing, onset, bias; `report`)."""
+    good: Good = []
+    errors: list[str] = []
     used = 0
     for p in map(Path, paths):
-        good, errs = _file(p, spec)
+        ok, errs = _file(p, spec)
         errors += errs
-        used += bool(good)
-        for demo_id, x, lab, env in good:
-            xs.append(x)
-            labels.append(lab)
-            envs.append(env)
-            ids.append(demo_id)
-    if not xs:
+        used += bool(ok)
+        good += ok
+    if spec.labels is not None:  # a row for a recording not given: a typo, or a file missing from the folder
+        given = {c.label_key for _, c in good} | {n for p in map(Path, paths) for n in (p.name, p.stem)}
+        errors += [f"--labels {spec.labels.path}: names {k!r}, which is not among the recordings given; remove the "
+                   "row, or add the recording" for k in spec.labels.labels
+                   if k not in given and Path(k).name not in given and Path(k).stem not in given]
+    if not good:
         return None, errors
-    x = np.stack(xs)
-    ds = Dataset(commands=x, responses=x.copy(), labels=np.array(labels, dtype=np.int8), env=np.stack(envs),
-                 dt=spec.dt, env_names=tuple(spec.env_names), task=spec.task,
-                 channels=tuple(c.name for c in spec.channels), units={c.name: c.unit for c in spec.channels},
-                 meta={"source": "import-demos", "demo_ids": ids, "errors": errors, "files_imported": used})
+    x = np.stack([c.x for _, c in good])
+    info = {k: [c.info.get(k, np.nan) for _, c in good] for k in sorted({k for _, c in good for k in c.info})}
+    ds = Dataset(commands=x, responses=x.copy(), labels=np.array([c.label for _, c in good], dtype=np.int8),
+                 env=np.stack([c.env for _, c in good]), dt=spec.dt, env_names=tuple(spec.env_names),
+                 task=spec.task, channels=tuple(c.name for c in spec.channels),
+                 units={c.name: c.unit for c in spec.channels},
+                 meta={"source": "import-demos", "demo_ids": [i for i, _ in good], "errors": errors,
+                       "files_imported": used, "import": info})
     return ds, errors
+
+
+def report(ds: Dataset) -> list[str]:
+    """What the import measured, a line each: position noise and the velocity smoothing it chose,
+    motion durations, the force bias removed, and how windows were fitted to the horizon."""
+    info = {k: np.asarray(v, dtype=float) for k, v in ds.meta.get("import", {}).items()}
+    out = []
+    if "noise" in info:
+        out.append(f"position noise {np.nanmedian(info['noise']) * 1e3:.2g} mm (median); velocity derived where not "
+                   f"recorded: Savitzky-Golay over {np.nanmedian(info['window']):.3g} s, leaving "
+                   f"{np.nanmedian(info['velocity_noise']):.2g} m/s of noise")
+    if "onset" in info and np.isfinite(info["onset"]).any():
+        d = info["end"] - info["onset"]
+        out.append(f"motions last {np.nanmin(d):.2f}-{np.nanmax(d):.2f} s (median {np.nanmedian(d):.2f} s)")
+    for k in (k for k in info if k.startswith("bias_")):
+        out.append(f"tared {k[5:]!r}: bias {np.nanmedian(info[k]):+.3g} N median ({np.nanmin(info[k]):+.3g} to "
+                   f"{np.nanmax(info[k]):+.3g})")
+    if "time_scale" in info and np.any(info["time_scale"] != 1.0):
+        s = info["time_scale"]
+        out.append(f"windows resampled onto N·dt: time scale {np.min(s):.2f}-{np.max(s):.2f} (above 1: a slow motion "
+                   "played faster)")
+    return out
 
 
 #: the name this function had when only CSV was read; it reads HDF5 by suffix too

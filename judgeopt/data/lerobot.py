@@ -115,7 +115,7 @@ def _sources(spec: ImportSpec, columns: list[str], info: dict[str, Any], file: P
         elif name in columns:
             out[name] = name
     for name in spec.env_names:
-        if name not in out and not isinstance(info.get(name), (int, float)):
+        if name not in out and name not in spec.env_values and not isinstance(info.get(name), (int, float)):
             raise ImportError_(f"{file}, field {name!r}: no column {name!r} and no number {name!r} in {INFO}; "
                                f"map a column with --keys {name}=COLUMN[:INDEX]")
     if "t" in keys:
@@ -128,7 +128,7 @@ def _sources(spec: ImportSpec, columns: list[str], info: dict[str, Any], file: P
         need("success", keys["success"])
     elif found:
         out["success"] = found[0]
-    else:
+    elif spec.labels is None:
         raise ImportError_(f"{file}, field 'success': no column {' or '.join(map(repr, order))}; map one with "
                            "--keys success=COLUMN")
     need("episode_index", "episode_index")
@@ -215,7 +215,8 @@ def _raw(ep: _Episode, spec: ImportSpec, info: dict[str, Any], sources: dict[str
     elif "t" not in v:
         v["t"] = np.arange(len(rows)) / fps(root, info)
         desc["t"] = f"row in the episode / fps {fps(root, info):g}"
-    env = {n: v.pop(n) if n in sources else np.array([float(info[n])]) for n in spec.env_names}
+    env = {n: v.pop(n) if n in sources else np.array([float(info[n])]) for n in spec.env_names
+           if n not in spec.env_values}
     for n in spec.env_names:
         desc.setdefault(n, f"{INFO} key {n!r}")
     origin = ep.files[0]
@@ -225,9 +226,9 @@ def _raw(ep: _Episode, spec: ImportSpec, info: dict[str, Any], sources: dict[str
             return f"{root / INFO}, field {c!r} (key {c!r}), episode {ep.index}"
         return f"{ep.files[which[i]]}, episode {ep.index}, row {rows[i]}, field {c!r} ({desc[c]})"
 
-    label = series_label(v.pop("success"), f"{origin}, episode {ep.index}, field 'success' ({sources['success']})",
-                         spec.success_threshold)
-    done = sources["success"] == DONE_COLUMN and "success" not in spec.lerobot_keys
+    label = None if "success" not in sources else series_label(
+        v.pop("success"), f"{origin}, episode {ep.index}, field 'success' ({sources['success']})", spec.success_threshold)
+    done = sources.get("success") == DONE_COLUMN and "success" not in spec.lerobot_keys
     return RawDemo(str(origin), f"episode {ep.index}", f"{root.name}:episode_{ep.index}", v, env, label, where,
                    label_from_done=DONE_COLUMN if done else "")
 

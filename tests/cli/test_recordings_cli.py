@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -62,14 +64,27 @@ def test_flags_that_cannot_apply_are_one_line_usage_errors(tmp_path, capsys, arg
     assert not (tmp_path / "d.h5").exists()
 
 
-def test_a_long_recording_names_the_flags_and_crop_to_horizon_takes_it(tmp_path, capsys):
+def _long_csv(path: Path, stop: float) -> Path:
+    """3 s at 100 Hz: the tool moves at 1 cm/s until `stop` s, pressing 2 N from 1 s."""
     t = np.round(np.arange(0, 3.0 + 1e-9, 0.01), 6)
-    rows = ["t,y,f,label,y_obj,mu"] + [f"{float(ti)!r},{0.01 * float(ti)!r},{2.0 if ti > 1 else 0.0},success,0.2,1.5"
-                                       for ti in t]
-    (tmp_path / "long.csv").write_text("\n".join(rows) + "\n")
-    assert main(["import-demos", str(tmp_path / "long.csv"), "--out", str(tmp_path / "d.h5")]) == 5
+    rows = ["t,y,f,label,y_obj,mu"] + [f"{float(ti)!r},{0.01 * min(float(ti), stop)!r},{2.0 if ti > 1 else 0.0},"
+                                       "success,0.2,1.5" for ti in t]
+    path.write_text("\n".join(rows) + "\n")
+    return path
+
+
+def test_a_long_recording_names_the_flags_and_crop_to_horizon_takes_it(tmp_path, capsys):
+    path = _long_csv(tmp_path / "long.csv", stop=2.0)
+    assert main(["import-demos", str(path), "--out", str(tmp_path / "d.h5")]) == 5
     err = capsys.readouterr().err
-    assert "lasts 3 s, longer than the horizon N·dt = 1.5 s" in err and "--align contact" in err
-    assert main(["import-demos", str(tmp_path / "long.csv"), "--out", str(tmp_path / "d.h5"), "--align", "contact",
+    assert "lasts 3 s, longer than the horizon N·dt = 1.5 s" in err and "--align onset (or contact)" in err
+    assert main(["import-demos", str(path), "--out", str(tmp_path / "d.h5"), "--align", "contact",
                  "--crop-to-horizon"]) == 0
     np.testing.assert_allclose(load(tmp_path / "d.h5").responses[0, 0, 0], 0.0091, atol=1e-9)  # 1.01 s - 0.1 s
+    # a window that ends before the motion does lost what decided the label: refused, with the fixes
+    moving = _long_csv(tmp_path / "moving.csv", stop=3.0)
+    assert main(["import-demos", str(moving), "--out", str(tmp_path / "e.h5"), "--align", "contact",
+                 "--fit", "crop"]) == 5
+    err = capsys.readouterr().err
+    assert "the motion ends 3 s after the first time stamp, after the 1.5 s kept from 0.91 s" in err
+    assert "--horizon N with N·dt >= 2.19 s" in err and "--fit resample" in err

@@ -188,7 +188,8 @@ def test_nan_and_unit_mistakes_name_demo_group_field_and_sample(tmp_path):
     assert ds is None and errors == [
         f"{path}, demo group 'data/demo_0', field 'mu' (attribute 'mu'): nan is not finite",
         f"{path}, demo group 'data/demo_1', field 'f' (obs/f), sample 7: nan is not finite",
-        f"{path}, demo group 'data/demo_2', field 'y' (obs/y), sample 3: 30 is beyond 5; expected SI units (m, m/s, N)",
+        f"{path}, demo group 'data/demo_2', field 'y' (obs/y), sample 3: 30 is beyond 5; expected SI units (m, m/s, N); in mm? pass --scale "
+        "y=mm",
     ]
 
 

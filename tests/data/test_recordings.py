@@ -24,12 +24,14 @@ def _y(t: np.ndarray) -> np.ndarray:
     return 0.05 * np.sin(t) + 0.01 * t
 
 
-def _long(path: Path, seconds: float = 3.0, contact_at: float = 1.3, nan_at: float | None = None) -> Path:
-    """A 100 Hz recording longer than N·dt: no force before `contact_at`, 10 N after."""
+def _long(path: Path, seconds: float = 3.0, contact_at: float = 1.3, nan_at: float | None = None,
+          stop: float | None = None) -> Path:
+    """A 100 Hz recording longer than N·dt: no force before `contact_at`, 10 N after; the tool
+    moves throughout, or until `stop` s and then rests."""
     t = np.round(np.arange(0, seconds + 1e-9, 0.01), 6)
     f = np.where(t >= contact_at, 10.0, 0.2)
     rows = ["t,y,f,label,y_obj,mu"]
-    for ti, yi, fi in zip(t, _y(t), f):
+    for ti, yi, fi in zip(t, _y(t if stop is None else np.minimum(t, stop)), f):
         y = "nan" if nan_at is not None and abs(ti - nan_at) < 1e-9 else repr(float(yi))
         rows.append(f"{float(ti)!r},{y},{float(fi)!r},success,0.2,1.5")
     path.write_text("\n".join(rows) + "\n")
@@ -41,7 +43,8 @@ def test_a_long_recording_is_refused_with_the_flags_that_fix_it(tmp_path):
     ds, errors = import_demos([path], ImportSpec(ENV))
     assert ds is None and errors == [
         f"{path}: demonstration 'long' lasts 3 s, longer than the horizon N·dt = 1.5 s; crop it with --start/--end S, "
-        "start at contact with --align contact, or keep the first 1.5 s with --crop-to-horizon"]
+        "start at the motion with --align onset (or contact), keep the first 1.5 s with --fit crop, or fit the motion "
+        "to it with --fit resample"]
 
 
 def test_start_and_end_crop_and_resample_from_the_window(tmp_path):
@@ -61,24 +64,26 @@ def test_start_and_end_crop_and_resample_from_the_window(tmp_path):
 
 
 def test_contact_alignment_with_pre_roll_and_crop_to_horizon(tmp_path):
-    path = _long(tmp_path / "long.csv")
-    spec = ImportSpec(ENV, align="contact", contact_force=1.0, pre_contact=0.1)
+    path = _long(tmp_path / "long.csv", stop=2.5)
+    spec = ImportSpec(ENV, align="contact", contact_force=1.0, lead=0.1)
     _, errors = import_demos([path], spec)  # 1.2 s .. 3 s is still 1.8 s
     assert "(1.8 s kept from 1.2 s to 3 s), longer than the horizon" in errors[0]
-    ds, errors = import_demos([path], ImportSpec(ENV, align="contact", pre_contact=0.1, crop_to_horizon=True))
+    ds, errors = import_demos([path], ImportSpec(ENV, align="contact", lead=0.1, fit="crop"))
     assert errors == []
     x = ds.responses[0]
-    np.testing.assert_allclose(x[:, 0], _y(1.2 + TK), atol=1e-7)  # from 0.1 s before the force rises
+    early = TK <= 1.2  # before the tool stops at 2.5 s
+    np.testing.assert_allclose(x[early, 0], _y(1.2 + TK[early]), atol=1e-7)  # from 0.1 s before the force rises
     assert x[1, 2] == pytest.approx(0.2) and (x[2:, 2] == 10.0).all()
-    ds, _ = import_demos([path], ImportSpec(ENV, align="contact", pre_contact=5.0, start=0.5, end=1.8))
+    ds, _ = import_demos([path], ImportSpec(ENV, align="contact", lead=5.0, start=0.5, end=1.8))
     np.testing.assert_allclose(ds.responses[0, 0, 0], _y(0.5), atol=1e-9)  # the pre-roll stops at --start
-    _, errors = import_demos([path], ImportSpec(ENV, align="contact", contact_force=20.0, crop_to_horizon=True))
+    _, errors = import_demos([path], ImportSpec(ENV, align="contact", contact_force=20.0, fit="crop"))
     assert errors == [f"{path}, row 132, column 'f': no contact onset for --align contact: the largest force between "
                       "0 s and 3 s is 10 N, not above --contact-force 20 N"]
 
 
 @pytest.mark.parametrize("kw, message", [
-    ({"align": "onset"}, "--align 'onset': choose one of start, contact"),
+    ({"align": "motion"}, "--align 'motion': choose one of start, contact, onset"),
+    ({"fit": "stretch"}, "--fit 'stretch': choose one of refuse, crop, resample"),
     ({"start": 1.0, "end": 0.5}, "--end 0.5 s must be after --start 1 s"),
     ({"start": -1.0}, "--start -1 s: must be 0 or later"),
     ({"contact_force": 0.0}, "--contact-force 0 N must be positive"),
