@@ -86,7 +86,8 @@ def import_spec(args: argparse.Namespace, paths: list[Path]) -> Any:
             labels=read_labels(args.labels) if args.labels else None,
             env_values=parse_assignments(args.env, "--env", env_names),
             start=args.start, end=args.end, align=args.align, contact_force=args.contact_force, lead=args.lead,
-            fit="crop" if args.crop_to_horizon else args.fit, tare=args.tare, filter_key=args.filter_key,
+            fit="crop" if args.crop_to_horizon else args.fit, tare=args.tare,
+            streams=tuple(x.strip() for x in (args.streams or "").split(",") if x.strip()), filter_key=args.filter_key,
             success_threshold=args.success_threshold)
     except ImportError_ as exc:
         raise CLIError(str(exc)) from None
@@ -171,6 +172,9 @@ def add_import_flags(m: argparse.ArgumentParser) -> None:
     m.add_argument("--env", action="append", metavar="NAME=VALUE", help="an environment value the recordings do not "
                    "carry, the same for all (e.g. --env y_obj=0.246; repeat or comma-separate for several; default: none, "
                    "read from the recordings)")
+    m.add_argument("--streams", metavar="A,B", help="a recording kept as one CSV per stream, NAME_A.csv and "
+                   "NAME_B.csv (e.g. --streams mocap,ft: demo_01_mocap.csv with t,y and demo_01_ft.csv with t,f), "
+                   "merged on time (default: one file per recording)")
     m.add_argument("--tare", action="store_true", help="subtract each force's mean over the rest before the motion "
                    "(a force sensor's bias); needs at least 0.05 s at rest before the motion")
     w = m.add_argument_group("which part of a recording is kept (then resampled to dt over N·dt)")

@@ -18,12 +18,21 @@ CSV format (header row required, SI units, one file per demonstration or one tab
 `demo_id` column):
 
     demo_id  optional; without it the file is one demonstration
-    t        time stamps in s, strictly increasing, any rate
+    t        time stamps in s, strictly increasing, any rate and origin (UNIX time is fine)
     y        position along the scooping direction in m (each position channel of the task)
     ydot     optional velocity in m/s (derived from y when missing)
-    f        pressing force in N (each force channel)
+    f        pressing force in N, pressing positive (each force channel)
     label    success or failure (also 1/0, true/false), the same on every row of a demonstration
     <env>    environment values (e.g. y_obj, mu), constant within a demonstration
+
+A lab's own files need no conversion: `--columns t=time,y=tool_y_m,f=fz_N` maps its header;
+`--scale f=-1,y=mm` (a factor or a signed unit) and `--offset y=X` convert as read; `--labels
+FILE` (a CSV of recording and outcome) and `--env y_obj=0.246` stand in for the label and
+environment columns. A channel whose cells are empty on some rows was recorded at its own rate
+(motion capture at 120 Hz, force at 1 kHz on other rows); each keeps its own time stamps, and
+only each stream's must increase. `--streams mocap,ft` merges NAME_mocap.csv and NAME_ft.csv.
+A force that is only negative while pressing is refused, naming `--scale f=-1`; a position
+beyond 5 m names `--scale y=mm`.
 
 HDF5 format (robomimic's layout: a `data` group holding one group per demonstration,
 `data/demo_0`, `data/demo_1`, ..., taken in the order of their trailing number). In each
@@ -60,12 +69,21 @@ demonstration; else one bag, one demonstration), `label=TOPIC` (std_msgs Bool/St
 environment value per topic. Time is the header stamp; each stream keeps its own rate. Labels
 and environment values a bag lacks come from `--labels`/`--env`. Details in `judgeopt.data.ros2`.
 
+Velocity, where not recorded, comes from a Savitzky-Golay fit of the position whose window is
+the shortest that leaves at most 0.01 m/s of the measured position noise (at most 0.25 s;
+`judgeopt.data.signals`); the same fit gives the motion's onset and end. The noise, window and
+durations are reported (`report`).
+
 Which part of a recording is kept (`ImportSpec` start/end/align/..., the command's flags):
 `--start`/`--end` S crop it (seconds after its first time stamp); `--align contact` starts it
-`--pre-contact` s (default 0.1) before the first sample where a force channel's magnitude
-exceeds `--contact-force` N (default 1), clipped at `--start`. What is kept must fit in N·dt:
-a longer window is refused with its duration and these flags, or with `--crop-to-horizon` its
-first N·dt seconds are kept. Only the kept samples must be finite and plausible.
+`--lead` s (default 0.1) before the first sample where a force channel's magnitude exceeds
+`--contact-force` N (default 1), `--align onset` `--lead` s before the position leaves rest,
+each recording its own, clipped at `--start`. `--tare` subtracts each force's mean over the rest
+before the motion. What is kept must fit in N·dt: a longer window is refused with its duration
+and these flags (`--fit refuse`); `--fit crop` keeps its first N·dt seconds but refuses a
+recording whose motion ends after them (its label belongs to the part cut off); `--fit
+resample` stretches each motion, onset to end plus `--lead` each side, onto N·dt (velocities
+scaled with it). Only the kept samples must be finite and plausible.
 
 Labels from dense rewards: with `--success-threshold X` the label is 1 when the demonstration's
 largest reward (HDF5: dataset `rewards` or the mapped `success`; LeRobot: `next.reward`) is at
@@ -76,7 +94,7 @@ all 1 is refused: robomimic's done_mode 2 sets it at the end of every demo, succ
 
 The kept window is resampled to the planner's period (cubic interpolation of each position,
 linear of each force) from its start over N·dt; a shorter one is held at its last position (at
-rest) and force. Recorded values are stored as both commands and responses: a recording is
+rest) and force, except under `--fit resample`. Recorded values are stored as both commands and responses: a recording is
 what the tool did. `judgeopt.data.export` writes a dataset back as CSV in the format above.
 """
 
@@ -121,10 +139,15 @@ def _read(path: Path) -> tuple[list[str], list[list[str]]]:
     return [h.strip() for h in rows[0]], rows[1:]
 
 
-def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
-    """Parse a CSV file into raw demonstrations (numbers and labels parsed, nothing else checked).
-    A channel with empty cells was recorded at its own rate: its rows with a value are its samples."""
-    header, rows = _read(path)
+def _csv_demos(path: Path, spec: ImportSpec, table: tuple[list[str], list[tuple[str, list[str]]]] | None = None
+               ) -> list[RawDemo]:
+    """Parse a CSV file (or `table`: streams merged from several, `_merged`) into raw
+    demonstrations (numbers and labels parsed, nothing else checked). A channel with empty cells
+    was recorded at its own rate: its rows with a value are its samples."""
+    if table is None:
+        header, lines = _read(path)
+        table = header, [(f"{path}, row {r}", row) for r, row in enumerate(lines, start=2)]  # as a spreadsheet shows
+    header, rows = table
     missing = [c for c in spec.required if spec.column(c) not in header]
     if missing and any(c.strip().lower() in FILE_COLUMNS for c in header) and any(
             c.strip().lower() in LABEL_COLUMNS for c in header):
@@ -138,16 +161,16 @@ def _csv_demos(path: Path, spec: ImportSpec) -> list[RawDemo]:
            if spec.column(name) in header}
     numeric = ["t", *spec.names("position", "force"), *(c for c in spec.names("velocity") if c in col),
                *(c for c in spec.env_names if c in col and c not in spec.env_values)]
-    groups: dict[str, list[tuple[int, list[str]]]] = {}
-    for r, row in enumerate(rows, start=2):  # row numbers as a spreadsheet shows them
+    groups: dict[str, list[tuple[str, list[str]]]] = {}
+    for r, row in rows:
         if len(row) != len(header):
-            raise ImportError_(f"{path}, row {r}: {len(row)} fields, the header has {len(header)}")
+            raise ImportError_(f"{r}: {len(row)} fields, the header has {len(header)}")
         key = row[col["demo_id"]].strip() if "demo_id" in col else path.stem
         groups.setdefault(key, []).append((r, row))
     return [_csv_demo(path, spec, key, items, col, numeric) for key, items in groups.items()]
 
 
-def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[int, list[str]]], col: dict[str, int],
+def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[str, list[str]]], col: dict[str, int],
               numeric: list[str]) -> RawDemo:
     values: dict[str, np.ndarray] = {}
     rows_of: dict[str, np.ndarray] = {}  # per field: the item indices holding its values
@@ -160,7 +183,7 @@ def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[int, lis
             try:
                 v.append(float(cell))
             except ValueError:
-                raise ImportError_(f"{path}, row {r}, column {spec.column(c)!r}: {row[col[c]]!r} is not a number"
+                raise ImportError_(f"{r}, column {spec.column(c)!r}: {row[col[c]]!r} is not a number"
                                    ) from None
             at.append(k)
         if not v:
@@ -174,7 +197,7 @@ def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[int, lis
             if not lab:
                 continue
             if lab not in LABELS:
-                raise ImportError_(f"{path}, row {r}, column {spec.column('label')!r}: {row[col['label']]!r} is not "
+                raise ImportError_(f"{r}, column {spec.column('label')!r}: {row[col['label']]!r} is not "
                                    "success/failure")
             labels.add(LABELS[lab])
         if len(labels) != 1:
@@ -186,7 +209,7 @@ def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[int, lis
 
     def where(c: str, i: int) -> str:
         rows = rows_of.get(c, rows_of["t"])
-        return f"{path}, row {items[int(rows[i])][0]}, column {spec.column(c)!r}"
+        return f"{items[int(rows[i])][0]}, column {spec.column(c)!r}"
 
     def shown(c: str, i: int) -> str:
         rows = rows_of.get(c, rows_of["t"])
@@ -196,6 +219,42 @@ def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[int, lis
     return RawDemo(str(path), f"demonstration {key!r}", f"{path.name}:{key}",
                    {c: values[c] for c in channels if c in values},
                    {c: values[c] for c in spec.env_names if c in values}, label, where, shown, times=times)
+
+
+def _merged(paths: Sequence[Path], spec: ImportSpec) -> tuple[list[tuple[Path, tuple | None]], list[str]]:
+    """With --streams A,B: the files NAME_A.csv, NAME_B.csv, ... of one recording as one table
+    (their columns side by side, each file's rows blank in the others' columns), under the path
+    NAME; every other path as it is. A recording missing one of its streams is reported."""
+    out: list[tuple[Path, tuple | None]] = []
+    groups: dict[Path, dict[str, Path]] = {}
+    for p in paths:
+        stream = next((s for s in spec.streams if p.suffix.lower() == ".csv" and p.stem.endswith(f"_{s}")), None)
+        if stream is None:
+            out.append((p, None))
+        else:
+            groups.setdefault(p.with_name(p.stem[:-len(stream) - 1]), {})[stream] = p
+    errors = []
+    for name, files in groups.items():
+        missing = [s for s in spec.streams if s not in files]
+        if missing:
+            errors.append(f"{name}: no {', '.join(f'{name.name}_{s}.csv' for s in missing)} beside "
+                          f"{', '.join(f.name for f in files.values())} (--streams {','.join(spec.streams)})")
+            continue
+        try:
+            tables = [(f, *_read(f)) for f in files.values()]
+        except ImportError_ as exc:
+            errors.append(str(exc))
+            continue
+        short = next(((f, r, len(row), len(head)) for f, head, lines in tables
+                      for r, row in enumerate(lines, start=2) if len(row) != len(head)), None)
+        if short:
+            errors.append(f"{short[0]}, row {short[1]}: {short[2]} fields, the header has {short[3]}")
+            continue
+        header = list(dict.fromkeys(h for _, head, _ in tables for h in head))
+        rows = [(f"{f}, row {r}", [row[head.index(h)] if h in head else "" for h in header])
+                for f, head, lines in tables for r, row in enumerate(lines, start=2)]
+        out.append((name, (header, rows)))
+    return out, errors
 
 
 # -- HDF5 (robomimic-style) -------------------------------------------------------------------------
@@ -469,7 +528,7 @@ def _checked(raws: Sequence[RawDemo], spec: ImportSpec, origin: str, hint: str) 
     return ([], errors + [refused]) if refused else (good, errors)
 
 
-def _file(path: Path, spec: ImportSpec) -> tuple[Good, list[str]]:
+def _file(path: Path, spec: ImportSpec, table: tuple | None = None) -> tuple[Good, list[str]]:
     if is_bag(path):
         try:
             raws, errors = bag_demos(path, spec)
@@ -487,7 +546,7 @@ def _file(path: Path, spec: ImportSpec) -> tuple[Good, list[str]]:
     if path.suffix.lower() in HDF5_SUFFIXES:
         return _hdf5_file(path, spec)
     try:  # a CSV file is imported whole or not at all
-        return [(raw.demo_id, check(raw, spec)) for raw in _csv_demos(path, spec)], []
+        return [(raw.demo_id, check(raw, spec)) for raw in _csv_demos(path, spec, table)], []
     except ImportError_ as exc:
         return [], [str(exc)]
 
@@ -498,15 +557,16 @@ def import_demos(paths: Sequence[str | Path], spec: ImportSpec) -> tuple[Dataset
     bad input). `meta["files_imported"]` counts the files that gave at least one demonstration;
     `meta["import"]` holds what was measured on each (noise, smoothing, onset, bias; `report`)."""
     good: Good = []
-    errors: list[str] = []
+    inputs, errors = _merged(list(map(Path, paths)), spec)
     used = 0
-    for p in map(Path, paths):
-        ok, errs = _file(p, spec)
+    for p, table in inputs:
+        ok, errs = _file(p, spec, table)
         errors += errs
         used += bool(ok)
         good += ok
     if spec.labels is not None:  # a row for a recording not given: a typo, or a file missing from the folder
-        given = {c.label_key for _, c in good} | {n for p in map(Path, paths) for n in (p.name, p.stem)}
+        given = {c.label_key for _, c in good} | {n for p in map(Path, paths) for n in (
+            p.name, p.stem, *(p.stem[:-len(s) - 1] for s in spec.streams if p.stem.endswith(f"_{s}")))}
         errors += [f"--labels {spec.labels.path}: names {k!r}, which is not among the recordings given; remove the "
                    "row, or add the recording" for k in spec.labels.labels
                    if k not in given and Path(k).name not in given and Path(k).stem not in given]

@@ -68,6 +68,8 @@ class ImportSpec:
     env_values: Mapping[str, float] = field(default_factory=dict)
     #: subtract each force channel's mean over the rest before the motion (a force sensor's bias)
     tare: bool = False
+    #: a recording kept as one CSV file per stream, NAME_<stream>.csv (`--streams mocap,ft`), merged on time
+    streams: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.align not in ALIGN:

@@ -197,3 +197,21 @@ def test_labels_and_environment_values_apply_to_hdf5_demo_groups_too(tmp_path):
     ds, errors = import_demos([REPO / "data" / "example_demos_robomimic.hdf5"], spec)
     assert errors == [] and ds.labels.tolist() == [0, 1, 0]
     assert (ds.env[:, 0] == 0.3).all() and len(set(ds.env[:, 1])) > 1  # mu still read from each demo group
+
+
+def test_streams_in_separate_files_merge_on_time(tmp_path):
+    one = tmp_path / "one"
+    one.mkdir()
+    _lab_file(one / "demo_0007.csv", 0.5, 1.0, np.random.default_rng(4))
+    ref, errors = import_demos([one / "demo_0007.csv"], _spec(LabelFile("l", {"demo_0007": 1})))
+    assert errors == []
+    header, *rows = (one / "demo_0007.csv").read_text().splitlines()
+    mocap = [r.rsplit(",", 1)[0] for r in rows if r.split(",")[1]]
+    ft = [r.split(",")[0] + "," + r.split(",")[2] for r in rows if r.split(",")[2]]
+    (tmp_path / "demo_0007_mocap.csv").write_text("time,tool_y_m\n" + "\n".join(mocap) + "\n")
+    (tmp_path / "demo_0007_ft.csv").write_text("time,fz_N\n" + "\n".join(ft) + "\n")
+    (tmp_path / "demo_0008_mocap.csv").write_text("time,tool_y_m\n1,0\n2,0\n")
+    files = sorted(tmp_path.glob("*.csv"))
+    ds, errors = import_demos(files, _spec(LabelFile("l", {"demo_0007": 1, "demo_0008": 0}), streams=("mocap", "ft")))
+    np.testing.assert_array_equal(ds.responses, ref.responses)  # the same as one file with both streams
+    assert errors == [f"{tmp_path / 'demo_0008'}: no demo_0008_ft.csv beside demo_0008_mocap.csv (--streams mocap,ft)"]
