@@ -1,5 +1,5 @@
 # Every target sets up .venv first (scripts/setup.sh: idempotent, quick when already done).
-.PHONY: setup run test bench data generators scrape scrape-trust
+.PHONY: setup run test bench data generators scrape scrape-trust lab-recordings
 BIN := .venv/bin
 
 setup:
@@ -29,6 +29,12 @@ data: setup
 	$(BIN)/judgeopt collect --out data/train_random.h5 --seed 3 --n 15000 --overwrite
 	$(BIN)/judgeopt collect --out data/test_seed2.h5 --seed 2 --n 1000 --overwrite
 	$(BIN)/judgeopt collect --out data/train_constant.h5 --seed 4 --n 15000 --set commands.constant_force_share=0.4 --overwrite
+
+# human-style scoops recorded in the simulated lab (y_obj = 0.246 m, mu = 0.5), written as a lab writes them: one
+# CSV per recording (120 Hz motion capture and 1 kHz force on their own rows), labels.csv with 3 % of labels wrong
+# (judgeopt/tasks/scoop/lab_recordings.py; about a minute on 2 cores)
+lab-recordings: setup
+	$(BIN)/python -m judgeopt.tasks.scoop.lab_recordings --out out/lab --n 400 --seed 0 --overwrite
 
 # the second task end to end (docs/tasks.md): demonstrations (about 12 min on 2 cores; resumable),
 # its judge, a generator per limit set, and both planners evaluated in simulation on 100 environments

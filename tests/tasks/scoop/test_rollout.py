@@ -18,6 +18,13 @@ def test_rollouts_are_deterministic_and_independent(sim):
     assert a.success == b.success and a.object_rise == b.object_rise
 
 
+def test_commands_of_any_duration_are_replayed(sim):
+    """N·dt need not be the planner's 1.5 s: a 2.2 s command at the controller's 1 ms, and at 50 ms."""
+    for dt, horizon in ((1e-3, 2200), (0.05, 44)):
+        r = sim.run(min_jerk_plan(-0.1, 0.25, 1.8, 8.0, horizon=horizon, dt=dt), 0.246, 0.5)
+        assert r.as_array().shape == (horizon + 1, 3) and abs(r.y[-1] - 0.25) < 0.005 and r.f[-1] > 5.0
+
+
 def test_responses_follow_the_commands(sim):
     plan = min_jerk_plan(-0.03, 0.19, 1.0, 15.0)
     r = sim.run(plan, 0.28, 2.0)
