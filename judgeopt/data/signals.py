@@ -17,10 +17,11 @@ import numpy as np
 VELOCITY_NOISE = 0.01
 #: the longest smoothing window (s): longer would round off a human's accelerations
 MAX_WINDOW = 0.25
-#: a motion has started (or not yet ended) once the smoothed position is this far from rest (m), or 5 noise levels
-MOTION_STEP = 0.002
-#: below this speed (m/s), or 3 velocity noise levels, the tool is taken to be at rest
-REST_SPEED = 0.005
+#: a motion has started (or not yet ended) once the position, smoothed over MAX_WINDOW, is this far from rest (m),
+#: or 5 of its noise levels
+MOTION_STEP = 0.002  # a tool left alone still creeps by a millimetre or two
+#: below this speed (m/s), or 3 velocity noise levels (smoothed over MAX_WINDOW), the tool is taken to be at rest
+REST_SPEED = 0.003
 
 
 @dataclass(frozen=True)
@@ -33,6 +34,7 @@ class Smoothed:
     noise: float  # white-noise level of the raw position (same unit)
     window: float  # Savitzky-Golay window, s
     velocity_noise: float  # what that window leaves of `noise` in the velocity
+    raw: np.ndarray  # the position on the uniform grid, unsmoothed (for `motion_span`)
 
 
 def uniform(t: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
@@ -74,30 +76,48 @@ def smooth(t: np.ndarray, y: np.ndarray, target: float = VELOCITY_NOISE) -> Smoo
     sigma = noise_level(yu)
     if len(yu) < 3:
         v = np.full(len(yu), (yu[-1] - yu[0]) / max(tu[-1] - tu[0], h))
-        return Smoothed(tu, yu, v, sigma, 0.0, 0.0)
+        return Smoothed(tu, yu, v, sigma, 0.0, 0.0, yu)
     m = half_window(sigma, h, len(yu), target)
+    ys, v = _fit(yu, m, h)
+    return Smoothed(tu, ys, v, sigma, (2 * m + 1) * h, float(_slope_noise(sigma, m, h)), yu)
+
+
+def _fit(y: np.ndarray, m: int, h: float) -> tuple[np.ndarray, np.ndarray]:
+    """Quadratic Savitzky-Golay fit over 2m + 1 samples: position and its rate."""
+    from scipy.signal import savgol_filter  # deferred: scipy takes a second to import, and the CLI imports this
+
     w = 2 * m + 1
     order = min(2, w - 1)
-    ys = savgol_filter(yu, w, order, mode="interp")
-    v = savgol_filter(yu, w, order, deriv=1, delta=h, mode="interp")
-    vn = sigma / (h * np.sqrt(m * (m + 1) * (2 * m + 1) / 3.0))
-    return Smoothed(tu, ys, v, sigma, w * h, float(vn))
+    return savgol_filter(y, w, order, mode="interp"), savgol_filter(y, w, order, deriv=1, delta=h, mode="interp")
+
+
+def _slope_noise(sigma: float, m: int, h: float) -> float:
+    return sigma / (h * np.sqrt(m * (m + 1) * (2 * m + 1) / 3.0))
 
 
 def motion_span(s: Smoothed) -> tuple[float, float] | None:
-    """(onset, end) of the motion in s, or None when the tool never leaves rest: the first and
-    last samples farther than MOTION_STEP (or 5 noise levels) from the rest at either end, each
-    widened to where the speed drops to REST_SPEED (or 3 velocity-noise levels)."""
-    step = max(MOTION_STEP, 5 * s.noise)
-    rest = max(REST_SPEED, 3 * s.velocity_noise)
-    moving_from_start = np.abs(s.y - s.y[0]) > step
-    moving_to_end = np.abs(s.y - s.y[-1]) > step
+    """(onset, end) of the motion in s, or None when the tool never leaves rest. Read from a fit
+    over the longest window (MAX_WINDOW: a human's slow start and slow last correction stand out
+    from its lower noise): the first and last samples farther than MOTION_STEP (or 5 noise
+    levels of that fit) from the rest at either end, each widened to where the speed drops to
+    REST_SPEED (or 3 of its velocity-noise levels)."""
+    h = float(s.t[1] - s.t[0]) if len(s.t) > 1 else 1.0
+    m = max(1, min(int(MAX_WINDOW / (2 * h)), (len(s.raw) - 1) // 2))
+    if len(s.raw) < 3:
+        y, v = s.y, s.v
+    else:
+        y, v = _fit(s.raw, m, h)
+    step = max(MOTION_STEP, 5 * s.noise / np.sqrt(m + 0.5))
+    rest = max(REST_SPEED, 3 * _slope_noise(s.noise, m, h))
+    edge = max(1, min(m, len(y) // 4))  # the rest at either end: the fit's edges are its least certain samples
+    moving_from_start = np.abs(y - np.median(y[:edge])) > step
+    moving_to_end = np.abs(y - np.median(y[-edge:])) > step
     if not moving_from_start.any():
         return None
     i = int(np.argmax(moving_from_start))
-    while i > 0 and abs(s.v[i - 1]) > rest:
+    while i > 0 and abs(v[i - 1]) > rest:
         i -= 1
-    j = len(s.y) - 1 - int(np.argmax(moving_to_end[::-1]))
-    while j < len(s.y) - 1 and abs(s.v[j + 1]) > rest:
+    j = len(y) - 1 - int(np.argmax(moving_to_end[::-1]))
+    while j < len(y) - 1 and abs(v[j + 1]) > rest:
         j += 1
     return float(s.t[i]), float(s.t[max(j, i)])

@@ -98,7 +98,8 @@ def test_a_lab_folder_imports_with_one_spec_and_matches_the_motion_written(tmp_p
     np.testing.assert_allclose(ds.meta["import"]["bias_f"], -0.3, atol=0.01)  # in the task's sign: the sensor read +0.3 N
     info = ds.meta["import"]
     for k, (duration, idle) in enumerate(((0.9, 0.5), (1.3, 1.2))):  # inside the motion written, most of it
-        assert idle <= info["onset"][k] <= idle + 0.1 and idle + duration - 0.2 <= info["end"][k] <= idle + duration
+        assert idle - 0.05 <= info["onset"][k] <= idle + 0.05  # the smoothing window spreads the start a little
+        assert idle + duration - 0.1 <= info["end"][k] <= idle + duration + 0.05
 
 
 def test_a_flipped_force_is_refused_with_the_fix_and_a_right_one_is_not(tmp_path):
