@@ -14,7 +14,7 @@ def _table_names() -> list[str]:
     """`planners`, `sweep`, `robustness` and every task's own tables (the scoop's table4, table5, compare)."""
     from judgeopt.tasks import get_task, task_names
 
-    return ["planners", "sweep", "robustness"] + sorted({name for t in task_names() for name in get_task(t).tables()})
+    return ["planners", "sweep", "robustness", "trials"] + sorted({name for t in task_names() for name in get_task(t).tables()})
 
 
 def _default_problem(table: str) -> str:
@@ -39,13 +39,18 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.n < 1:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
-    robustness_only = [o for o, v in (("--perturb", args.perturb), ("--qdot-max", args.qdot_max)) if v]
-    if robustness_only and args.table != "robustness":
-        raise CLIError(f"{', '.join(robustness_only)}: only for `judgeopt evaluate robustness`")
+    if args.perturb and args.table != "robustness":
+        raise CLIError("--perturb: only for `judgeopt evaluate robustness`")
+    if args.qdot_max and args.table not in ("robustness", "trials"):
+        raise CLIError("--qdot-max: only for `judgeopt evaluate robustness` and `trials`")
+    if args.trials is not None and args.table != "trials":
+        raise CLIError("--trials: only for `judgeopt evaluate trials`")
     if args.table == "sweep":
         return cmd_sweep(args)
     if args.table == "robustness":
         return cmd_robustness(args)
+    if args.table == "trials":
+        return cmd_trials(args)
     problem = load_problem(resolve(args.problem or _default_problem(args.table)))
     available = tables(problem.task)
     if args.table not in available:
@@ -171,6 +176,46 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     return _report(args, out / "robustness", md, summary, plot_robustness(task, summary, title), notes)
 
 
+def cmd_trials(args: argparse.Namespace) -> int:
+    from matplotlib.figure import Figure
+
+    from judgeopt.evaluate.robustness import DEFAULT_METHODS, robustness_rows
+    from judgeopt.evaluate.tables import run_table
+    from judgeopt.evaluate.trials import TrialSpread, markdown_trials, run_trials
+    from judgeopt.files import resolve
+    from judgeopt.planners.problem import load_problem
+
+    problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
+    if args.judge:
+        problem = problem.with_overrides(judge=args.judge)
+    qdots = tuple(args.qdot_max or (problem.qdot_max,))
+    for q in qdots:
+        problem.with_overrides(qdot_max=q)  # a limit that contradicts the problem: one line, before planning
+    rows, notes = robustness_rows(problem, qdots, tuple(args.methods or DEFAULT_METHODS), args.models)
+    if not rows:
+        raise CLIError(f"no planner to evaluate: {'; '.join(notes)}")
+    out = Path(args.out or "out/evaluate/trials")
+    plans = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
+                      chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    k = args.trials or 10
+    spread = TrialSpread()
+    summary = run_trials(problem, {r.key: plans[r.key] for r in rows}, k, args.seed, spread, progress=not args.quiet)
+    names = {r.key: r.name for r in rows}
+    for s in summary:
+        s["row"] = names[s["row"]]
+    title = (f"Repeated trials: {problem.name} (task {problem.task}), {args.n} environment(s) ({_env_text(problem)}), "
+             f"{k} trials per plan, seed {args.seed}, judge {problem.judge}")
+    fig = Figure(figsize=(7, 3.2))
+    ax = fig.subplots()
+    ax.bar(range(len(summary)), [s["successes"] or 0 for s in summary])
+    ax.set_xticks(range(len(summary)), [f"{s['row']}\n(env {s['env_index']})" for s in summary], fontsize=7)
+    ax.axhline(0.9 * k, color="0.5", ls="--", lw=0.8)
+    ax.set_ylabel(f"successful trials of {k}")
+    ax.set_title(title, fontsize=8, wrap=True)
+    table = [{k_: v for k_, v in s.items() if k_ not in ("draws", "outcomes")} for s in summary]
+    return _report(args, out / "trials", markdown_trials(summary, title, spread), table, fig, notes)
+
+
 def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[float, float]]:
     """--vary NAME=LO,HI checked against the task's physical range."""
     from judgeopt.planners.problem import ProblemError
@@ -208,6 +253,7 @@ def _argv(args: argparse.Namespace) -> list[str]:
               if k.endswith("_range") and v is not None]
     extra += (["--perturb", *(n if v is None else f"{n}={','.join(f'{x:g}' for x in v)}" for n, v in args.perturb)]
               if args.perturb else []) + (["--qdot-max", ",".join(f"{q:g}" for q in args.qdot_max)] if args.qdot_max else [])
+    extra += ["--trials", str(args.trials)] if args.trials else []
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
@@ -275,7 +321,8 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    help="planners: both planners, the CEM and the no-judge baseline (any task); sweep: held-out limit "
                    "sets, with the no-judge baseline and a feasibility search in simulation; robustness: each "
                    "planner's plans (default amortized and direct) for the nominal world replayed unchanged under the "
-                   "task's perturbations, one at a time; the scoop's table4, "
+                   "task's perturbations, one at a time; trials: each planner's plan tried --trials times, the world "
+                   "drawn anew each time (a lab's repeated trials); the scoop's table4, "
                    "table5 (the paper's tables) and compare (planners and remedies side by side)")
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
                    "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
@@ -289,8 +336,11 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--perturb", nargs="+", type=name_values, metavar="NAME[=V1,V2]",
                    help="robustness: the perturbations to replay under, each at the task's values or the ones given "
                    "(default: every one the task declares; `judgeopt tasks --json` lists them)")
-    e.add_argument("--qdot-max", type=floats, metavar="V1,V2", help="robustness: the velocity limits to plan under, "
+    e.add_argument("--qdot-max", type=floats, metavar="V1,V2", help="robustness, trials: the velocity limits to plan under, "
                    "one evaluation each (e.g. 1.0,0.4; default: the problem's)")
+    e.add_argument("--trials", type=positive, metavar="K", help="trials: times each plan is tried, each in a world "
+                   "drawn anew around the planned one (the object placed by hand, friction, mass, sensor noise; "
+                   "default 10)")
     e.add_argument("--n", type=positive, default=100, help="environments per row")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")

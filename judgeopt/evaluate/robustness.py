@@ -96,7 +96,8 @@ def robustness_rows(problem: Problem, qdot_maxes: tuple[float, ...], methods: tu
     return rows, notes
 
 
-def _plan_of(task: Task, row: dict[str, Any], dt: float):
+def plan_of(task: Task, row: dict[str, Any], dt: float):
+    """A saved plan row (PlanResult.to_json) as the task's Plan."""
     values = np.stack([np.asarray(row[c], dtype=float) for c in row["channels"]], axis=1)
     return task.plan(values, dt)
 
@@ -118,7 +119,7 @@ def replay_chunk(task_name: str, case: Case, plans: list[dict], seed: int, dt: f
                 continue
             sim.perturb(case.world, seed=[seed, r["env_index"]])
             try:
-                outcome = sim.simulate(_plan_of(task, r, dt), env)
+                outcome = sim.simulate(plan_of(task, r, dt), env)
             except PlanError as exc:
                 out.append({**row, "success": False, "refused": str(exc)})
                 continue
