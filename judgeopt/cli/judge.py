@@ -78,7 +78,10 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         "invert_labels": bool(args.invert_labels),
         "train_data": {"path": " + ".join(args.train), "sha256": " + ".join(sha256_file(p) for p in args.train),
                        "n": train_ds.n, "success_ratio": train_ds.success_ratio(),
-                       "env_names": list(train_ds.env_names)},
+                       "env_names": list(train_ds.env_names),
+                       # what the judge has seen, per channel: planning outside it is extrapolation (coverage_notes)
+                       "ranges": {c: [float(train_ds.responses[:, :, k].min()), float(train_ds.responses[:, :, k].max())]
+                                  for k, c in enumerate(train_ds.channels)}},
         "test_data": ({"path": str(args.test), "sha256": sha256_file(args.test), "n": test_ds.n,
                        "success_ratio": test_ds.success_ratio()} if test_ds is not None else None),
         "train_config": result.config,

@@ -310,7 +310,7 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
 
     from judgeopt.judge.store import check_compatible, load_judge
     from judgeopt.planners.generator import AmortizedPlanner
-    from judgeopt.planners.limits import CONDITION_NAMES
+    from judgeopt.planners.limits import CONDITION_NAMES, coverage_notes
     from judgeopt.planners.generator_train import GeneratorTrainConfig, train_config_dict, train_generator
     from judgeopt.files import resolve
     from judgeopt.planners.store import save_generator
@@ -332,6 +332,8 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     jpath = resolve(problem.judge, (".json",))
     judge, jmeta = load_judge(jpath)
     check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
+    for note in coverage_notes(problem, jmeta):
+        print(f"judgeopt train-generator: warning: {note}", file=sys.stderr)
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
                               threads=args.threads, progress=not args.quiet)

@@ -105,3 +105,25 @@ WIDE_LIMITS = wide_limits(DEFAULT_TASK)
 def limits_of(problem: Problem) -> np.ndarray:
     """The conditioned limits of a problem, in CONDITION_NAMES order."""
     return np.array([getattr(problem, k) for k in CONDITION_NAMES], dtype=float)
+
+
+def coverage_notes(problem: Problem, judge_meta: dict) -> list[str]:
+    """Where the limits let a force channel go but the judge's training data never went (less
+    than a fifth of the allowed range overlaps what was recorded): the judge's p there is a
+    guess, a generator trained through it gets no gradient, and a recording imported with the
+    wrong sign is the usual cause. Judges saved without their data's range give no note."""
+    ranges = (judge_meta.get("train_data") or {}).get("ranges") or {}
+    notes = []
+    for c in get_task(problem.task).channels_of("force"):
+        if c.name not in ranges:
+            continue
+        lo, hi = ranges[c.name]
+        f_min, f_max = float(np.min(problem.vec("f_min"))), float(np.max(problem.vec("f_max")))
+        overlap = max(0.0, min(hi, f_max) - max(lo, f_min))
+        if overlap < 0.2 * (f_max - f_min):
+            notes.append(f"the limits allow {c.name} in [{f_min:g}, {f_max:g}] {c.unit}, but the judge's training data "
+                         f"has {c.name} in [{lo:.3g}, {hi:.3g}] {c.unit}: its success probability there is a guess and "
+                         "a generator cannot learn through it; if the recordings press with the other sign, re-import "
+                         f"them with --scale {c.name}=-1")
+    return notes
+

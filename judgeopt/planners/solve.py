@@ -121,6 +121,7 @@ class Planners:
         build cached by model hash: ~15 s the first time, well under 1 s after)."""
         from judgeopt.judge.casadi_fn import DEFAULT_BACKEND, build_casadi_judge
         from judgeopt.judge.store import check_compatible, load_judge
+        from judgeopt.planners.limits import coverage_notes
         from judgeopt.planners.store import load_generator, matches
 
         bad = [m for m in methods if m not in METHODS]
@@ -130,6 +131,7 @@ class Planners:
         jmodel, jmeta = load_judge(chosen.judge)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, judge_path=chosen.judge, models_dir=models_dir, generator_given=generator)
+        out.notes += coverage_notes(problem, jmeta)
         if "amortized" in methods or "direct" in methods:
             gpath = chosen.generator
             if gpath is not None:
