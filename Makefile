@@ -1,5 +1,5 @@
 # Every target sets up .venv first (scripts/setup.sh: idempotent, quick when already done).
-.PHONY: setup run test bench data generators scrape scrape-trust lab-recordings
+.PHONY: setup run test bench data generators scrape scrape-trust lab-recordings section5
 BIN := .venv/bin
 
 setup:
@@ -35,6 +35,29 @@ data: setup
 # (judgeopt/tasks/scoop/lab_recordings.py; about a minute on 2 cores)
 lab-recordings: setup
 	$(BIN)/python -m judgeopt.tasks.scoop.lab_recordings --out out/lab --n 400 --seed 0 --overwrite
+
+# the paper's Section V in simulation (docs/results/section5.md; about 15 min on 2 cores). A lab's recordings made in the
+# scene and written as its raw files (UNIX time, 120 Hz motion capture and 1 kHz force on separate rows, force negative
+# with a 0.3 N bias, no velocity, rests, 3 % of labels wrong), imported with one command each, a judge on y_obj alone,
+# a generator per Table 8 velocity limit, both planners' plans tried 10 times; then a lab no file here describes
+# (250 Hz, millimetres, force positive, 0.5 N bias, 5 % wrong labels) scored by the same judge
+LAB := out/section5
+LAB_IMPORT := --columns t=time,y=tool_y_m,f=fz_N --scale f=-1 --tare --env-names y_obj --env y_obj=0.246 --align onset --fit resample --overwrite
+section5: setup
+	$(BIN)/python -m judgeopt.tasks.scoop.lab_recordings --out $(LAB)/train --n 1000 --seed 0 --overwrite
+	$(BIN)/python -m judgeopt.tasks.scoop.lab_recordings --out $(LAB)/test --n 115 --seed 1 --overwrite
+	$(BIN)/judgeopt import-demos $(LAB)/train/recordings --labels $(LAB)/train/labels.csv $(LAB_IMPORT) --out $(LAB)/train.h5
+	$(BIN)/judgeopt import-demos $(LAB)/test/recordings --labels $(LAB)/test/labels.csv $(LAB_IMPORT) --out $(LAB)/test.h5
+	$(BIN)/judgeopt import-demos $(LAB)/test/recordings --labels $(LAB)/test/labels_true.csv $(LAB_IMPORT) --out $(LAB)/test_true.h5
+	$(BIN)/judgeopt train-judge --train $(LAB)/train.h5 --test $(LAB)/test.h5 --env-names y_obj --seed 0 --out models/judge_lab --overwrite
+	$(BIN)/judgeopt test-judge --judge models/judge_lab --data $(LAB)/test.h5
+	$(BIN)/judgeopt test-judge --judge models/judge_lab --data $(LAB)/test_true.h5
+	$(BIN)/judgeopt train-generator --problem problems/paper_real.toml --epochs 3000 --out models/generator_lab --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/paper_real.toml --qdot-max 0.4 --epochs 3000 --out models/generator_lab_slow --overwrite
+	$(BIN)/judgeopt evaluate trials --problem problems/paper_real.toml --qdot-max 1.0,0.4 --n 1 --trials 10 --out docs/results/section5
+	$(BIN)/python -m judgeopt.tasks.scoop.lab_recordings --out $(LAB)/other --n 200 --seed 2 --overwrite --set mocap_rate=250 --set position_unit=mm --set force_sign=1 --set force_bias=0.5 --set label_noise=0.05 --set columns=stamp,tool_y_mm,force_N
+	$(BIN)/judgeopt import-demos $(LAB)/other/recordings --labels $(LAB)/other/labels_true.csv --columns t=stamp,y=tool_y_mm,f=force_N --scale y=mm --tare --env-names y_obj --env y_obj=0.246 --align onset --fit resample --overwrite --out $(LAB)/other_true.h5
+	$(BIN)/judgeopt test-judge --judge models/judge_lab --data $(LAB)/other_true.h5
 
 # the second task end to end (docs/tasks.md): demonstrations (about 12 min on 2 cores; resumable),
 # its judge, a generator per limit set, and both planners evaluated in simulation on 100 environments

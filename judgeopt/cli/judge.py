@@ -28,7 +28,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     import torch
 
     from judgeopt.data.dataset import DatasetError, concatenate, load
-    from judgeopt.judge.evaluate import evaluate_judge
+    from judgeopt.judge.evaluate import evaluate_judge, judge_inputs
     from judgeopt.judge.model import JudgeConfig
     from judgeopt.files import sha256_file
     from judgeopt.judge.store import model_paths, save_judge
@@ -70,6 +70,9 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         metrics["test_accuracy"] = metrics["test"]["accuracy"]
         if args.invert_labels:
             metrics["test_true_labels"] = evaluate_judge(model, test_ds)
+    # the most it ever says: with some labels wrong (a lab's), below 1; a p_target above it is out of reach
+    x, e = judge_inputs(model, train_ds)
+    metrics["p_max_train"] = float(model.predict_proba(x, e).max())
     meta = {
         "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
         "command": command_line(),
@@ -102,6 +105,9 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         if args.invert_labels:
             line += f" (against the inverted labels; {metrics['test_true_labels']['accuracy']:.4f} against the true ones)"
     print(line)
+    print(f"highest success probability it gives a training demonstration: {metrics['p_max_train']:.3f}"
+          + (" (the direct solve's p_target must lie below it: --p-target / [solver] p_target)"
+             if metrics["p_max_train"] < 0.99 else ""))
     print("history: " + ", ".join(str(f) for f in files))
     return 0
 
