@@ -110,8 +110,9 @@ def cmd_import_demos(args: argparse.Namespace) -> int:
                        ExitCode.BAD_INPUT)
     ds.meta["command"] = command_line()
     save(ds, args.out)
+    skipped = sum(not e.startswith("--labels") for e in errors)  # a labels file's unused rows skip nothing
     print(f"wrote {args.out}: {ds.n} demonstrations from {ds.meta['files_imported']} of {len(paths)} file(s) "
-          f"({len(errors)} skipped), success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, "
+          f"({skipped} skipped), success ratio {ds.success_ratio():.2f}, resampled to dt = {ds.dt} s, "
           f"N = {ds.horizon}")
     for line in report(ds):
         print(f"  {line}")

@@ -567,9 +567,12 @@ def import_demos(paths: Sequence[str | Path], spec: ImportSpec) -> tuple[Dataset
     if spec.labels is not None:  # a row for a recording not given: a typo, or a file missing from the folder
         given = {c.label_key for _, c in good} | {n for p in map(Path, paths) for n in (
             p.name, p.stem, *(p.stem[:-len(s) - 1] for s in spec.streams if p.stem.endswith(f"_{s}")))}
-        errors += [f"--labels {spec.labels.path}: names {k!r}, which is not among the recordings given; remove the "
-                   "row, or add the recording" for k in spec.labels.labels
-                   if k not in given and Path(k).name not in given and Path(k).stem not in given]
+        absent = [k for k in spec.labels.labels if k not in given and Path(k).name not in given
+                  and Path(k).stem not in given]
+        if absent:
+            errors.append(f"--labels {spec.labels.path}: names {len(absent)} recording(s) not given ("
+                          f"{', '.join(absent[:3])}{', ...' if len(absent) > 3 else ''}); a typo or a missing file? "
+                          "(fine when importing a subset)")
     if not good:
         return None, errors
     x = np.stack([c.x for _, c in good])

@@ -132,8 +132,8 @@ def test_the_labels_file_must_name_every_recording_and_only_those(tmp_path):
     assert errors == [
         f"{files[2]}: demonstration 'demo_0002' is not in the labels file {labels}; add a row 'demo_0002.csv,success' "
         "(or failure), or leave the recording out",
-        f"--labels {labels}: names 'demo_0009.csv', which is not among the recordings given; remove the row, or add "
-        "the recording"]
+        f"--labels {labels}: names 1 recording(s) not given (demo_0009.csv); a typo or a missing file? (fine when "
+        "importing a subset)"]
 
 
 @pytest.mark.parametrize("text, message", [
