@@ -137,61 +137,116 @@ class Simulator(TaskSimulator):
 
     def run(self, plan: Plan, y_obj: float, mu: float, record: int = 0) -> RolloutResult:
         """Replay `plan` in environment (y_obj, mu). `record` > 0 keeps every record-th
-        step's scene state in info["frames"] for rendering."""
+        step's scene state in info["frames"] for rendering. The same as an `Execution`
+        stepped through the whole plan at once."""
+        run = self.execute(plan, y_obj, mu, record)
+        run.advance(plan, plan.horizon)
+        return run.finish()
+
+    def execute(self, plan: Plan, y_obj: float, mu: float, record: int = 0) -> "Execution":
+        """Start executing `plan` (the arm placed at its first position, settled onto its first
+        force); step it with `Execution.advance`, which may be given a re-planned command."""
         check_environment(y_obj, mu)
         check_plan(plan)
-        cfg, ctl, sc = self.rollout_config, self.controller, self.scene
-        step = sc.config.timestep
-        self.reset(float(plan.y[0]), y_obj, mu)
-        obj_start, _ = sc.object_pose()
-        x_home, zc = sc.config.x_home, self.z_contact
-        cmd = TaskCommand(position=np.array([x_home, plan.y[0], zc]))
-        frames: list = []
-        k_total = 0
+        return Execution(self, plan, y_obj, mu, record)
 
-        def advance(c: TaskCommand) -> None:
-            nonlocal k_total
-            self.step(c)
-            k_total += 1
-            if record and k_total % record == 0:
-                frames.append(self._snapshot())
+    def _snapshot(self) -> dict:
+        sc = self.scene
+        q = [s[0] for s in pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)]
+        p, o = pb.getBasePositionAndOrientation(sc.obj, physicsClientId=sc.client)
+        return {"q": q, "obj_pos": p, "obj_orn": o}
 
-        n_settle = int(round(cfg.settle_time / step))
+    def close(self) -> None:
+        self.scene.close()
+
+
+class Execution:
+    """One rollout, stepped: the arm follows a command sample by sample and the response is
+    measured as it goes, so a planner can re-plan from what the arm measured (receding
+    horizon). `advance(plan, k)` runs the control steps up to planner sample k of `plan`,
+    which may differ from the plan the execution started with; `finish` lifts and judges."""
+
+    def __init__(self, sim: Simulator, plan: Plan, y_obj: float, mu: float, record: int = 0):
+        self.sim, self.record, self.plan = sim, record, plan
+        cfg, sc = sim.rollout_config, sim.scene
+        self.step_s = sc.config.timestep
+        self.every = int(round(plan.dt / self.step_s))
+        sim.reset(float(plan.y[0]), y_obj, mu)
+        self.obj_start, _ = sc.object_pose()
+        self.cmd = TaskCommand(position=np.array([sc.config.x_home, plan.y[0], sim.z_contact]))
+        self.frames: list = []
+        self.k_total = 0
+        self.i = 0  # control steps of the motion taken
+        self.resp = np.zeros((plan.horizon + 1, 3))
+        self.vel = np.zeros(6)
+        n_settle = int(round(cfg.settle_time / self.step_s))
         for i in range(n_settle):
-            cmd.force_z = plan.f[0] * (i + 1) / n_settle
-            advance(cmd)
+            self.cmd.force_z = plan.f[0] * (i + 1) / n_settle
+            self._step(self.cmd)
 
-        t, x = plan.resample(step)
-        y_c, yd_c, f_c = x[:, 0], x[:, 1], x[:, 2]
-        every = int(round(plan.dt / step))
-        resp = np.zeros((plan.horizon + 1, 3))
-        vel = np.zeros(6)
-        for i in range(len(t)):
-            cmd.position[1] = y_c[i]
-            vel[1] = yd_c[i]
-            cmd.velocity = vel
-            cmd.force_z = f_c[i]
-            if i % every == 0:  # sample the response before the step that starts at t_k
-                resp[i // every] = (ctl.position[1], ctl.velocity[1], ctl.f_est[2])
-            advance(cmd)
+    def _step(self, c: TaskCommand) -> None:
+        self.sim.step(c)
+        self.k_total += 1
+        if self.record and self.k_total % self.record == 0:
+            self.frames.append(self.sim._snapshot())
+
+    @property
+    def k(self) -> int:
+        """Planner samples measured so far (the next one to measure)."""
+        return -(-self.i // self.every)
+
+    def measured(self) -> np.ndarray:
+        """(k, 3) [y, ydot, f] sampled at the planner's period so far: the arm's own readings."""
+        return self.resp[:self.k].copy()
+
+    def state(self) -> np.ndarray:
+        """The arm's [y, ydot, f] now (before the next control step)."""
+        ctl = self.sim.controller
+        return np.array([ctl.position[1], ctl.velocity[1], ctl.f_est[2]])
+
+    def advance(self, plan: Plan, k: int) -> None:
+        """Control steps from now up to (and including the one that starts at) planner sample k
+        of `plan`, each following its 1 ms resampling; the response sampled before each planner
+        sample's step."""
+        if plan.dt != self.plan.dt or plan.horizon != self.plan.horizon:
+            raise ValueError("a re-planned command must keep the period and horizon of the first")
+        self.plan = plan
+        ctl = self.sim.controller
+        _, x = plan.resample(self.step_s)
+        last = min(k * self.every, len(x) - 1)
+        while self.i <= last:
+            i = self.i
+            self.cmd.position[1] = x[i, 0]
+            self.vel[1] = x[i, 1]
+            self.cmd.velocity = self.vel
+            self.cmd.force_z = x[i, 2]
+            if i % self.every == 0:  # sample the response before the step that starts at t_k
+                self.resp[i // self.every] = (ctl.position[1], ctl.velocity[1], ctl.f_est[2])
+            self._step(self.cmd)
+            self.i += 1
+
+    def finish(self) -> RolloutResult:
+        """The rest of the current plan, then the lift and the success test."""
+        self.advance(self.plan, self.plan.horizon)
+        sim, cfg, ctl, sc = self.sim, self.sim.rollout_config, self.sim.controller, self.sim.scene
+        plan = self.plan
         obj_after_motion, _ = sc.object_pose()
-
         # lift: pure position control, rise and tilt the blade back
         full = np.ones(6)
-        n_lift = int(round(cfg.lift_time / step))
-        n_hold = int(round(cfg.hold_time / step))
+        n_lift = int(round(cfg.lift_time / self.step_s))
+        n_hold = int(round(cfg.hold_time / self.step_s))
         z0 = ctl.position[2]
         tilt = math.radians(cfg.lift_tilt_deg)
-        cmd = TaskCommand(position=np.array([x_home, plan.y[-1], z0]), selection=full)
+        cmd = TaskCommand(position=np.array([sc.config.x_home, plan.y[-1], z0]), selection=full)
         for i in range(n_lift + n_hold):
             s = min(1.0, (i + 1) / n_lift)
             blend = 0.5 - 0.5 * math.cos(math.pi * s)
             cmd.position[2] = z0 + cfg.lift_height * blend
             cmd.rotation = pin.rpy.rpyToMatrix(tilt * blend, 0.0, 0.0)
-            advance(cmd)
+            self._step(cmd)
 
         obj_end, _ = sc.object_pose()
-        rise = float(obj_end[2] - obj_start[2])
+        rise = float(obj_end[2] - self.obj_start[2])
         on_blade = sc.contacts(sc.blade_top) > 0
         on_plate = sc.touches_plate()
         offset = float(np.linalg.norm(obj_end[:2] - ctl.position[:2]))
@@ -204,16 +259,9 @@ class Simulator(TaskSimulator):
         info = {"on_blade": on_blade, "on_plate": on_plate, "object_end": obj_end.tolist(), "offset_from_blade": offset,
                 "object_ahead": float(obj_end[1] - ctl.position[1]), "object_bottom": bottom,
                 **{f"success_{k}_test": bool(held and v) for k, v in passed.items()}}
-        if record:
-            info["frames"] = frames
-        return RolloutResult(resp[:, 0], resp[:, 1], resp[:, 2], bool(success), rise,
-                             float(obj_after_motion[1] - obj_start[1]), info)
+        if self.record:
+            info["frames"] = self.frames
+        r = self.resp
+        return RolloutResult(r[:, 0], r[:, 1], r[:, 2], bool(success), rise,
+                             float(obj_after_motion[1] - self.obj_start[1]), info)
 
-    def _snapshot(self) -> dict:
-        sc = self.scene
-        q = [s[0] for s in pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)]
-        p, o = pb.getBasePositionAndOrientation(sc.obj, physicsClientId=sc.client)
-        return {"q": q, "obj_pos": p, "obj_orn": o}
-
-    def close(self) -> None:
-        self.scene.close()
