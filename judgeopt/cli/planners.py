@@ -158,13 +158,22 @@ def cmd_solve(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     problem = problem_from_args(args)
     env = problem.nominal_env()
-    methods = {"both": ("amortized", "direct"), "all": METHODS}.get(args.method, (args.method,))
+    told_world = simulated_world(problem, args.simulate_env)  # checked before any solver runs
+    if args.method == "receding" and not args.simulate:
+        raise CLIError("--method receding re-plans while the plan is executed in simulation; drop --no-simulate")
+    receding = args.method == "receding"
+    if receding:
+        from judgeopt.planners.receding import RecedingConfig
+
+        RecedingConfig(problem.replan_period).steps(problem.dt, problem.steps)
+    methods = {"both": ("amortized", "direct"), "all": METHODS, "receding": ("amortized", "direct")}.get(
+        args.method, (args.method,))
     try:
         problem.check_feasible(env)
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
     fallback = None
-    if args.method == "both" and not args.generator:
+    if args.method in ("both", "receding") and not args.generator:
         from judgeopt.planners.solve import choose_models
 
         if choose_models(problem, methods, None, None, args.models).generator is None:
@@ -202,7 +211,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         where = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in uncertain.items())
         planners.notes.append(f"direct: planned for the {args.range_case} case over {len(env_set)} environments "
                               f"({where}); the others for its middle ({', '.join(f'{k} = {env[k]:g}' for k in uncertain)})")
-    results = planners.solve(env, simulator=sim, warm_start=args.warm_start, env_set=env_set, case=args.range_case)
+    results = planners.solve(env, simulator=sim, warm_start=args.warm_start, env_set=env_set, case=args.range_case,
+                             world=told_world)
+    if receding:
+        results.append(_receding(planners, sim, results, env, {**problem.world_env(env), **told_world}))
     planned = [r for r in results if r.verdict is not None]
     unlikely = bool(planned) and all(r.verdict == "unlikely" for r in planned)
     suggestions = []
@@ -249,7 +261,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     else:
         envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
         world = {k: v for k, v in problem.world_env(env).items() if k not in env}
-        if args.simulate and world:  # what the simulated world has besides what the planners read
+        world.update(told_world)
+        if args.simulate and world:  # what the simulated world has besides (or instead of) what the planners read
             envs += f"; simulated with {', '.join(f'{k} = {v:g}' for k, v in world.items())}"
         ends = ", ".join("free" if np.isnan(e) else f"{e:g}" for e in problem.terminal_positions(env))
         print(f"{problem.name} ({problem.task}): q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in "
@@ -266,13 +279,16 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
         task = get_task(problem.task)
         for r in results:
-            if r.status not in ("solved", "generated"):
+            if r.status not in ("solved", "generated", "executed"):
                 print(f"{r.method}: {r.message}")
             if "sim_refused" in r.info:
                 print(f"{r.method}, simulated: the simulator refused the plan ({r.info['sim_refused']}): a failure")
             elif r.simulated_success is not None:
                 details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
                 print(f"{r.method}, simulated: {task.explain(details)}")
+        for r in results:
+            if r.method == "receding":
+                print(_replan_rows(r))
         if any(r.probability_source == "judge" for r in results):
             print("note: a 'judge' success p is the judge's own score of the plan, not checked against replayed "
                   "outcomes of this planner setting (fit a calibration with `judgeopt calibrate`)")
@@ -290,6 +306,64 @@ def cmd_solve(args: argparse.Namespace) -> int:
                       "likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
     return ExitCode.INFEASIBLE if infeasible else ExitCode.UNLIKELY if unlikely else ExitCode.OK
+
+
+def simulated_world(problem: Problem, items: list[str] | None) -> dict[str, float]:
+    """--simulate-env NAME=VALUE ...: the simulated world's values where it differs from what the
+    planners were told, each a variable of the task within its scene's physical range."""
+    from judgeopt.tasks import get_task
+
+    task = get_task(problem.task)
+    out: dict[str, float] = {}
+    for item in items or ():
+        name, eq, value = (x.strip() for x in item.partition("="))
+        if name not in task.env_names:
+            raise CLIError(f"--simulate-env {item}: {name!r} is not a variable of task {task.name!r} (it has "
+                           f"{', '.join(task.env_names)})")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise CLIError(f"--simulate-env {item}: {value!r} is not a number (NAME=VALUE, e.g. y_obj=0.22)") from None
+        lo, hi = next(v.physical for v in task.env_vars if v.name == name)
+        if not lo <= out[name] <= hi:
+            raise CLIError(f"--simulate-env {item}: outside the {task.name} scene's physical range [{lo:g}, {hi:g}]")
+    return out
+
+
+def _receding(planners: Any, sim: Any, results: list, env: dict, world: dict) -> Any:
+    """The direct plan executed in `world` with re-planning from the measured response, as a
+    result row (its p: the last re-plan's; its outcome: the closed loop's)."""
+    import dataclasses as dc
+
+    from judgeopt.planners.receding import RecedingConfig, RecedingPlanner
+    from judgeopt.planners.result import assess
+
+    first = next(r for r in results if r.method == "direct")
+    pr = planners.problem
+    loop = RecedingPlanner(planners.direct, RecedingConfig(pr.replan_period)).execute(sim, first, env, world)
+    kept = [r for r in loop.replans if r.kept]
+    p = kept[-1].predicted if kept else first.predicted_success
+    total = sum(r.seconds for r in loop.replans)
+    out = dc.replace(first, method="receding", plan=loop.executed, predicted_success=p, status="executed",
+                     solve_time_s=total, iterations=sum(r.iterations for r in loop.replans),
+                     simulated_success=bool(loop.outcome.success), response=loop.response,
+                     info={"warm_start": first.info.get("warm_start"), "closed_loop": loop.summary(),
+                           "replan_log": [dc.asdict(r) for r in loop.replans],
+                           **{f"sim_{k}": v for k, v in loop.outcome.details.items()
+                              if isinstance(v, (bool, int, float))}},
+                     message=f"{len(loop.replans)} re-plans every {pr.replan_period:g} s, {len(kept)} kept")
+    return assess(out)
+
+
+def _replan_rows(r: Any) -> str:
+    """The receding planner's log: one line per re-plan."""
+    lines = [f"receding: {r.message}; each re-plan's time, predicted success and Ipopt status:"]
+    for x in r.info["replan_log"]:
+        p = "-" if x["predicted"] is None else f"{x['predicted']:.3f}"
+        est = "".join(f", {k} = {v:g}" for k, v in x["estimate"].items())
+        lines.append(f"  t = {x['t']:.2f} s (from {x['k']} measured samples): p {p}, {1000 * x['seconds']:.0f} ms, "
+                     f"{x['iterations']} it, {x['status']}{'' if x['kept'] else ' (dropped)'}{est}")
+    return "\n".join(lines)
 
 
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
@@ -415,9 +489,14 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
     add_problem_arguments(s)
-    s.add_argument("--method", choices=("direct", "amortized", "cem", "both", "all"), default="both",
+    s.add_argument("--method", choices=("direct", "amortized", "cem", "both", "all", "receding"), default="both",
                    help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
-                   "baseline (cross-entropy method over spline commands, same judge); all: the three")
+                   "baseline (cross-entropy method over spline commands, same judge); all: the three; receding: "
+                   "both, then the direct plan executed in simulation and re-solved every [solver] replan_period "
+                   "(0.1 s) from what the arm measured")
+    s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",
+                   help="simulate in a world that differs from the one planned for (e.g. y_obj=0.22: the object 3 cm "
+                   "further than said); repeatable (default: the world planned for)")
     s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
     s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "

@@ -264,6 +264,37 @@ class DirectPlanner:
         new._bounds()
         return new
 
+    def with_prefix(self, measured: np.ndarray) -> "DirectPlanner":
+        """The same compiled solver for the rest of a motion already under way: samples 0..k-1
+        of the plan are what the arm measured (`measured`, (k, channels) in the task's channel
+        order, k >= 1) and stay as they are, the judge reads them followed by the plan, and the
+        plan from sample k-1 on holds every limit and the integration, so it starts from the
+        measured state. Only bounds change: no rebuild (a re-plan costs one solve)."""
+        pr, n = self.problem, self.problem.steps
+        na, nf = pr.n_axes, pr.n_forces
+        k = len(measured)
+        if not 1 <= k <= n:
+            raise ProblemError(f"with_prefix: {k} measured samples; give 1 to {n} (the plan has {n + 1})")
+        spec = pr.channel_spec
+        pos = [j for j, c in enumerate(spec) if c.kind == "position"]
+        cols = {"position": pos, "force": [j for j, c in enumerate(spec) if c.kind == "force"],
+                "velocity": [next(j for j, c in enumerate(spec) if c.of == spec[p].name) for p in pos]}
+        new = copy.copy(self)
+        lbx, ubx, lbg, ubg = self._lbx.copy(), self._ubx.copy(), self._lbg.copy(), self._ubg.copy()
+        for i in range(na):
+            for s in range(1, k):  # q and v start at sample 1 (sample 0 is the problem's start)
+                for block, kind, scale in ((0, "position", SCALE_Q), (1, "velocity", SCALE_V)):
+                    j = block * n * na + i * n + (s - 1)
+                    lbx[j] = ubx[j] = measured[s, cols[kind][i]] / scale
+            for block in (0, 1):  # the integration between measured samples is what happened: not a constraint
+                rows = block * n * na + i * n + np.arange(k - 1)
+                lbg[rows], ubg[rows] = -np.inf, np.inf
+        for i in range(nf):
+            j = 3 * n * na + i * (n + 1) + np.arange(k)
+            lbx[j] = ubx[j] = measured[:, cols["force"][i]] / SCALE_F
+        new._lbx, new._ubx, new._lbg, new._ubg = lbx, ubx, lbg, ubg
+        return new
+
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
         return pessimistic([m.fn(traj, env)[0] for m in self.members], self.problem.pessimism, cs.sqrt, cs.fmin, 1e-9)

@@ -67,7 +67,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
     "terminal": ("q_end", "qdot_end"),
     "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
-    "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region"),
+    "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region", "replan_period"),
     "models": ("judge", "ensemble", "trust_model", "calibration"),
 }
 #: the position, velocity and force limits (bounds a planner can change without being rebuilt)
@@ -98,6 +98,7 @@ FIELD_HELP: dict[str, str] = {
     "tol": "direct solve: Ipopt tolerance",
     "pessimism": "direct solve: k in mean - k std of the ensemble's logits",
     "trust_region": "direct solve: largest distance to the demonstrations (Mahalanobis)",
+    "replan_period": "receding planner: seconds between re-plans during execution (a multiple of dt)",
     "judge": "judge model (path stem or models/NAME)",
     "ensemble": "ensemble folder for pessimistic planning",
     "trust_model": "trust-region model (path stem)",
@@ -147,6 +148,7 @@ class Problem:
     p_min: float | None = None  # optional hard constraint y_judge >= p_min in the direct solve
     max_iter: int = 300
     tol: float = 1e-6
+    replan_period: float = 0.1  # the receding planner's: the direct solve re-run every this many seconds
     judge: str = ""  # empty: the task's default judge
     # remedies against exploiting the judge (off unless set): the direct solve maximises
     # mean - pessimism * std of an ensemble's logits; and/or keeps the plan within

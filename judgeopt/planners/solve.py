@@ -246,7 +246,8 @@ class Planners:
         return out
 
     def solve(self, env: dict[str, float], simulator=None, guess=None, warm_start: str = "generator",
-              env_set: list[dict[str, float]] | None = None, case: str = "worst") -> list[PlanResult]:
+              env_set: list[dict[str, float]] | None = None, case: str = "worst",
+              world: dict[str, float] | None = None) -> list[PlanResult]:
         """Every requested method for one environment (infeasible limits: one result saying so).
         `guess`: the direct solve's warm start instead of the generator's plan; `warm_start`
         "none": the direct solve starts cold, from its min-jerk guess, as with a new task or
@@ -283,7 +284,8 @@ class Planners:
                 r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
             assess(r)
         if simulator is not None:
-            world = self.problem.world_env(env)  # with the task's variables the planners do not read
+            # with the task's variables the planners do not read; `world`: where it differs from what was said
+            world = {**self.problem.world_env(env), **(world or {})}
             for r in results:
                 if r.plan is not None:
                     try:

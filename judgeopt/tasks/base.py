@@ -148,6 +148,14 @@ class TaskSimulator(ABC):
             raise TaskError(f"this simulator cannot perturb its world (asked for {', '.join(values)})")
 
     @abstractmethod
+    def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Any:
+        """Start executing `plan` in `env`, to be stepped: an object with `advance(plan, k)`
+        (control steps up to planner sample k of a possibly re-planned command), `k` (samples
+        measured), `measured()` ((k, channels) responses so far), and `outcome()` (the rest of
+        the plan, then the task's success test). A task that can be stepped overrides this."""
+        raise TaskError(f"task {type(self).__name__} cannot be executed step by step (no TaskSimulator.execute); "
+                        "plan open loop instead")
+
     def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:
         """Replay `plan` (a Plan, or a (horizon + 1, channels) array at the task's dt) in
         environment `env`; `record` > 0 keeps every record-th physics step for rendering."""

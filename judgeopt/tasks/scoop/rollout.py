@@ -126,7 +126,10 @@ class Simulator(TaskSimulator):
         """The task interface: a Plan, or a (N + 1, 3) [y, ydot, f] array at the default period."""
         if not isinstance(plan, Plan):
             plan = Plan.from_array(DEFAULT_DT, plan, CHANNELS)
-        r = self.run(plan, float(env["y_obj"]), float(env["mu"]), record=record)
+        return self.outcome(self.run(plan, float(env["y_obj"]), float(env["mu"]), record=record))
+
+    def outcome(self, r: RolloutResult) -> Outcome:
+        """A rollout's result as the task interface's Outcome."""
         cfg = self.rollout_config
         # success dominates; below it, rising with the blade and ending near its centre
         rise = min(max(r.object_rise, 0.0) / cfg.success_rise, 1.0)
@@ -139,16 +142,20 @@ class Simulator(TaskSimulator):
         """Replay `plan` in environment (y_obj, mu). `record` > 0 keeps every record-th
         step's scene state in info["frames"] for rendering. The same as an `Execution`
         stepped through the whole plan at once."""
-        run = self.execute(plan, y_obj, mu, record)
+        run = self.start(plan, y_obj, mu, record)
         run.advance(plan, plan.horizon)
         return run.finish()
 
-    def execute(self, plan: Plan, y_obj: float, mu: float, record: int = 0) -> "Execution":
+    def start(self, plan: Plan, y_obj: float, mu: float, record: int = 0) -> "Execution":
         """Start executing `plan` (the arm placed at its first position, settled onto its first
         force); step it with `Execution.advance`, which may be given a re-planned command."""
         check_environment(y_obj, mu)
         check_plan(plan)
         return Execution(self, plan, y_obj, mu, record)
+
+    def execute(self, plan: Plan, env: Mapping[str, float], record: int = 0) -> "Execution":
+        """The task interface's stepping: `start` in environment `env`."""
+        return self.start(plan, float(env["y_obj"]), float(env["mu"]), record)
 
     def _snapshot(self) -> dict:
         sc = self.scene
@@ -224,6 +231,10 @@ class Execution:
                 self.resp[i // self.every] = (ctl.position[1], ctl.velocity[1], ctl.f_est[2])
             self._step(self.cmd)
             self.i += 1
+
+    def outcome(self) -> Outcome:
+        """`finish`, as the task interface's Outcome."""
+        return self.sim.outcome(self.finish())
 
     def finish(self) -> RolloutResult:
         """The rest of the current plan, then the lift and the success test."""

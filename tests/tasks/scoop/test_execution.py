@@ -30,7 +30,7 @@ def _plan(f: float = 15.0, end: float = 0.19) -> Plan:
 def test_stepping_in_pieces_is_the_rollout(sim):
     plan = _plan()
     whole = sim.run(plan, 0.19, 2.0)
-    run = sim.execute(plan, 0.19, 2.0)
+    run = sim.start(plan, 0.19, 2.0)
     for k in (1, 2, 7, 12, 30):
         run.advance(plan, k)
         assert run.k == k + 1
@@ -42,7 +42,7 @@ def test_stepping_in_pieces_is_the_rollout(sim):
 
 def test_a_new_command_changes_only_what_follows(sim):
     first, second = _plan(15.0), _plan(8.0)
-    a = sim.execute(first, 0.19, 2.0)
+    a = sim.start(first, 0.19, 2.0)
     a.advance(first, 10)
     a.advance(second, 30)
     ref = sim.run(first, 0.19, 2.0)
@@ -50,4 +50,4 @@ def test_a_new_command_changes_only_what_follows(sim):
     np.testing.assert_array_equal(x[:11], ref.as_array()[:11])  # measured before the new command took effect
     assert abs(x[20, 2] - 8.0) < 3.0 and abs(ref.f[20] - 15.0) < 3.0  # then the arm presses what it is told
     with pytest.raises(ValueError, match="period and horizon"):
-        sim.execute(first, 0.19, 2.0).advance(Plan(0.1, first.values[::2], first.channels), 3)
+        sim.start(first, 0.19, 2.0).advance(Plan(0.1, first.values[::2], first.channels), 3)

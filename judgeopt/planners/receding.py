@@ -1,0 +1,129 @@
+"""Re-planning in the loop: the direct solve re-run during execution from what the arm measured.
+
+Every `period` seconds the executed motion so far (the arm's own position, velocity and force
+readings at the planner's samples) is fixed, the judge reads it followed by the planned rest,
+and the rest is solved again by the direct solve under every limit and the terminal state,
+starting from the measured state (`DirectPlanner.with_prefix`: only bounds change, one solve per
+re-plan). The horizon shrinks rather than recedes: a scoop has a fixed duration and a terminal
+state, so each re-plan covers the time left, warm-started from the previous plan on the same
+clock. A re-plan that does not finish as "solved" is dropped and the previous plan kept.
+
+With an estimator (`Task.estimate`), the environment the judge reads is re-estimated from the
+measured motion before each re-plan, starting from what the user said.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable, Mapping
+
+import numpy as np
+
+from judgeopt.planners.direct import DirectPlanner
+from judgeopt.planners.problem import ProblemError
+from judgeopt.planners.result import PlanResult
+from judgeopt.trajectory import Plan
+
+
+@dataclass(frozen=True)
+class RecedingConfig:
+    """When to re-plan (each default defined here once)."""
+
+    #: s between re-plans; a multiple of the planner's dt, shorter than the horizon
+    period: float = 0.1
+    #: s before the end with no more re-plans: the terminal state is all that is left to decide
+    last: float = 0.2
+
+    def steps(self, dt: float, horizon: int) -> int:
+        """The period in planner samples, checked."""
+        m = self.period / dt
+        if not (abs(m - round(m)) < 1e-9 and 1 <= round(m) < horizon):
+            raise ProblemError(f"re-planning period {self.period:g} s: must be a multiple of the planner's dt = {dt:g} s "
+                               f"and shorter than the horizon {horizon * dt:g} s (e.g. {2 * dt:g})")
+        return int(round(m))
+
+
+@dataclass
+class Replan:
+    """One re-plan: when, from how many measured samples, what it believed and what it cost."""
+
+    t: float
+    k: int
+    status: str
+    predicted: float | None
+    seconds: float
+    iterations: int
+    kept: bool  # False: the previous plan went on
+    estimate: dict[str, float] = field(default_factory=dict)
+
+
+@dataclass
+class ClosedLoopResult:
+    """The first plan, every re-plan, the plan as it finally stood and the measured response."""
+
+    first: PlanResult
+    replans: list[Replan]
+    executed: Plan  # the command as it was carried out (each part from the plan in force then)
+    response: np.ndarray  # (N + 1, channels) measured
+    outcome: Any  # the task's Outcome
+    env_told: dict[str, float]
+    env_final: dict[str, float]
+
+    def summary(self) -> dict[str, Any]:
+        s = [r.seconds for r in self.replans]
+        return {"replans": len(self.replans), "kept": sum(r.kept for r in self.replans),
+                "replan_p95_ms": float(np.percentile(s, 95) * 1e3) if s else None,
+                "replan_max_ms": float(max(s) * 1e3) if s else None, "success": bool(self.outcome.success),
+                "env_told": self.env_told, "env_final": self.env_final}
+
+    def to_json(self) -> dict[str, Any]:
+        return {**self.summary(), "replan_log": [asdict(r) for r in self.replans],
+                "first_plan": self.first.plan.as_array().tolist(), "executed": self.executed.as_array().tolist(),
+                "response": self.response.tolist()}
+
+
+class RecedingPlanner:
+    """The direct solve, re-run from the measured state every `period` during execution."""
+
+    method = "receding"
+
+    def __init__(self, direct: DirectPlanner, config: RecedingConfig | None = None,
+                 estimator: Callable[[np.ndarray, Mapping[str, float], float], dict[str, float]] | None = None):
+        self.direct, self.config, self.estimator = direct, config or RecedingConfig(), estimator
+        pr = direct.problem
+        self.every = self.config.steps(pr.dt, pr.steps)
+
+    def execute(self, simulator: Any, first: PlanResult, env: Mapping[str, float],
+                world: Mapping[str, float]) -> ClosedLoopResult:
+        """Execute `first` (a plan for `env`, what the user said) in `world` (the simulated
+        world, which may differ), re-planning every period from the measured response."""
+        pr = self.direct.problem
+        n, dt = pr.steps, pr.dt
+        if first.plan is None:
+            raise ProblemError(f"no first plan to execute ({first.status}: {first.message})")
+        plan = first.plan
+        run = simulator.execute(plan, world)
+        told = dict(pr.env_dict(dict(env)))
+        belief = dict(told)
+        replans: list[Replan] = []
+        last_k = n - int(round(self.config.last / dt))
+        k = self.every
+        while k <= last_k:
+            run.advance(plan, k - 1)  # samples 0..k-1 measured; the step starting at k is the new plan's
+            measured = run.measured()
+            t0 = time.perf_counter()
+            if self.estimator is not None:
+                belief = {**belief, **self.estimator(measured, told, dt)}
+            guess = plan.values.copy()
+            guess[:k] = measured
+            r = self.direct.with_prefix(measured).solve(belief, guess=Plan(dt, guess, plan.channels))
+            seconds = time.perf_counter() - t0
+            kept = r.status == "solved" and r.plan is not None
+            replans.append(Replan(k * dt, k, r.status, r.predicted_success, seconds, r.iterations, kept,
+                                  {kk: belief[kk] for kk in belief if belief[kk] != told.get(kk)}))
+            if kept:  # the commands already carried out stay; the rest is the new plan's
+                plan = Plan(dt, np.vstack([plan.values[:k], r.plan.values[k:]]), plan.channels)
+            k += self.every
+        outcome = run.outcome()
+        return ClosedLoopResult(first, replans, plan, np.asarray(outcome.response), outcome, told, belief)
