@@ -112,7 +112,8 @@ def coverage_notes(problem: Problem, judge_meta: dict) -> list[str]:
     than a fifth of the allowed range overlaps what was recorded): the judge's p there is a
     guess, a generator trained through it gets no gradient, and a recording imported with the
     wrong sign is the usual cause. Judges saved without their data's range give no note."""
-    ranges = (judge_meta.get("train_data") or {}).get("ranges") or {}
+    data = judge_meta.get("train_data")  # a dict from train-judge; judges saved by other code may hold anything
+    ranges = (data.get("ranges") if isinstance(data, dict) else None) or {}
     notes = []
     for c in get_task(problem.task).channels_of("force"):
         if c.name not in ranges:

@@ -132,7 +132,8 @@ class Planners:
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, judge_path=chosen.judge, models_dir=models_dir, generator_given=generator)
         out.notes += coverage_notes(problem, jmeta)
-        ceiling = (jmeta.get("metrics") or {}).get("p_max_train")
+        metrics = jmeta.get("metrics")
+        ceiling = metrics.get("p_max_train") if isinstance(metrics, dict) else None
         if "direct" in methods and problem.objective == "target" and ceiling is not None and ceiling < problem.p_target:
             out.notes.append(f"the judge never gives a training demonstration more than p = {ceiling:.3f} (some labels "
                              f"wrong?), so the direct solve's p_target = {problem.p_target:g} is out of reach and it "

@@ -147,7 +147,6 @@ class TaskSimulator(ABC):
         if any(float(v) != 0.0 for v in values.values()):
             raise TaskError(f"this simulator cannot perturb its world (asked for {', '.join(values)})")
 
-    @abstractmethod
     def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Any:
         """Start executing `plan` in `env`, to be stepped: an object with `advance(plan, k)`
         (control steps up to planner sample k of a possibly re-planned command), `k` (samples
@@ -156,6 +155,7 @@ class TaskSimulator(ABC):
         raise TaskError(f"task {type(self).__name__} cannot be executed step by step (no TaskSimulator.execute); "
                         "plan open loop instead")
 
+    @abstractmethod
     def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:
         """Replay `plan` (a Plan, or a (horizon + 1, channels) array at the task's dt) in
         environment `env`; `record` > 0 keeps every record-th physics step for rendering."""

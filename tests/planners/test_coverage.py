@@ -19,3 +19,4 @@ def test_limits_outside_the_recorded_forces_are_named_with_the_sign_fix():
     assert coverage_notes(real, _meta(-1.0, 2.0)) != []  # 1 N of 9 overlaps: under a fifth
     assert coverage_notes(real, _meta(0.0, 14.0)) == []
     assert coverage_notes(real, {"train_data": {}}) == []  # a judge saved before ranges were kept
+    assert coverage_notes(real, {"train_data": "my file"}) == []  # or by other code
