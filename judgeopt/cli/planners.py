@@ -165,7 +165,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if receding:
         from judgeopt.planners.receding import RecedingConfig
 
-        RecedingConfig(problem.replan_period).steps(problem.dt, problem.steps)
+        RecedingConfig.of(problem).steps(problem.dt, problem.steps)
     methods = {"both": ("amortized", "direct"), "all": METHODS, "receding": ("amortized", "direct")}.get(
         args.method, (args.method,))
     try:
@@ -340,8 +340,9 @@ def _receding(planners: Any, sim: Any, results: list, env: dict, world: dict) ->
 
     first = next(r for r in results if r.method == "direct")
     pr = planners.problem
-    loop = RecedingPlanner(planners.direct, RecedingConfig(pr.replan_period)).execute(sim, first, env, world)
+    loop = RecedingPlanner(planners.direct, RecedingConfig.of(pr)).execute(sim, first, env, world)
     kept = [r for r in loop.replans if r.kept]
+    solves = [r for r in loop.replans if r.status != "plan kept"]
     p = kept[-1].predicted if kept else first.predicted_success
     total = sum(r.seconds for r in loop.replans)
     out = dc.replace(first, method="receding", plan=loop.executed, predicted_success=p, status="executed",
@@ -351,7 +352,8 @@ def _receding(planners: Any, sim: Any, results: list, env: dict, world: dict) ->
                            "replan_log": [dc.asdict(r) for r in loop.replans],
                            **{f"sim_{k}": v for k, v in loop.outcome.details.items()
                               if isinstance(v, (bool, int, float))}},
-                     message=f"{len(loop.replans)} re-plans every {pr.replan_period:g} s, {len(kept)} kept")
+                     message=f"{len(loop.replans)} checks every {pr.replan_period:g} s (trigger {pr.replan_trigger}), "
+                     f"{len(solves)} re-solved, {len(kept)} re-plans kept")
     return assess(out)
 
 
@@ -492,8 +494,8 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--method", choices=("direct", "amortized", "cem", "both", "all", "receding"), default="both",
                    help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
                    "baseline (cross-entropy method over spline commands, same judge); all: the three; receding: "
-                   "both, then the direct plan executed in simulation and re-solved every [solver] replan_period "
-                   "(0.1 s) from what the arm measured")
+                   "both, then the direct plan executed in simulation and, every [solver] replan_period (0.1 s), "
+                   "re-solved from what the arm measured (when the judge asks for it: [solver] replan_trigger)")
     s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",
                    help="simulate in a world that differs from the one planned for (e.g. y_obj=0.22: the object 3 cm "
                    "further than said); repeatable (default: the world planned for)")

@@ -41,7 +41,7 @@ def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits:
     skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
     skip |= set(LIMIT_NAMES) if over_limits else set()
     skip |= set() if method == "direct" else {"objective", "p_target"}  # the direct solve's alone
-    skip |= set() if method == "receding" else {"replan_period"}
+    skip |= set() if method == "receding" else {"replan_period", "replan_trigger"}
     p = {k: v for k, v in problem.to_dict().items() if k not in skip}
     blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
                       sort_keys=True, default=str)

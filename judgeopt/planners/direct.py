@@ -264,6 +264,11 @@ class DirectPlanner:
         new._bounds()
         return new
 
+    def probability(self, values: np.ndarray, env: dict[str, float]) -> float:
+        """The judge's success probability of a (N + 1, channels) trajectory in `env`."""
+        z = float(self.cjudge.fn(np.asarray(values, float).ravel(), judge_env(self.judge, env))[0])
+        return float(1.0 / (1.0 + np.exp(-z)))
+
     def with_prefix(self, measured: np.ndarray) -> "DirectPlanner":
         """The same compiled solver for the rest of a motion already under way: samples 0..k-1
         of the plan are what the arm measured (`measured`, (k, channels) in the task's channel

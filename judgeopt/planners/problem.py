@@ -67,7 +67,8 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
     "terminal": ("q_end", "qdot_end"),
     "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
-    "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region", "replan_period"),
+    "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region", "replan_period",
+               "replan_trigger"),
     "models": ("judge", "ensemble", "trust_model", "calibration"),
 }
 #: the position, velocity and force limits (bounds a planner can change without being rebuilt)
@@ -99,6 +100,8 @@ FIELD_HELP: dict[str, str] = {
     "pessimism": "direct solve: k in mean - k std of the ensemble's logits",
     "trust_region": "direct solve: largest distance to the demonstrations (Mahalanobis)",
     "replan_period": "receding planner: seconds between re-plans during execution (a multiple of dt)",
+    "replan_trigger": "receding planner: judge (re-solve only when the judge, reading what was measured and the "
+                      "plan's rest, falls below p_target) or always (re-solve every period)",
     "judge": "judge model (path stem or models/NAME)",
     "ensemble": "ensemble folder for pessimistic planning",
     "trust_model": "trust-region model (path stem)",
@@ -149,6 +152,9 @@ class Problem:
     max_iter: int = 300
     tol: float = 1e-6
     replan_period: float = 0.1  # the receding planner's: the direct solve re-run every this many seconds
+    # ... when the judge asks for it ("judge"), or every time ("always": measured worse when the world differs from
+    # what was said, benchmarks/bench_receding.py; docs/planners.md)
+    replan_trigger: str = "judge"
     judge: str = ""  # empty: the task's default judge
     # remedies against exploiting the judge (off unless set): the direct solve maximises
     # mean - pessimism * std of an ensemble's logits; and/or keeps the plan within

@@ -26,17 +26,30 @@ from judgeopt.planners.result import PlanResult
 from judgeopt.trajectory import Plan
 
 
+TRIGGERS = ("judge", "always")
+
+
 @dataclass(frozen=True)
 class RecedingConfig:
-    """When to re-plan (each default defined here once)."""
+    """When to re-plan: the period and trigger come from the problem ([solver] replan_period,
+    replan_trigger; `of`), the rest is defined here."""
 
     #: s between re-plans; a multiple of the planner's dt, shorter than the horizon
-    period: float = 0.1
+    period: float
+    #: "judge": re-solve only when the judge, reading the measured part followed by the plan's rest,
+    #: falls below the problem's p_target (else the plan goes on); "always": at every period
+    trigger: str
     #: s before the end with no more re-plans: the terminal state is all that is left to decide
     last: float = 0.2
 
+    @classmethod
+    def of(cls, problem: Any) -> "RecedingConfig":
+        return cls(problem.replan_period, problem.replan_trigger)
+
     def steps(self, dt: float, horizon: int) -> int:
-        """The period in planner samples, checked."""
+        """The period in planner samples, checked (and the trigger)."""
+        if self.trigger not in TRIGGERS:
+            raise ProblemError(f"re-planning trigger {self.trigger!r}: choose one of {', '.join(TRIGGERS)}")
         m = self.period / dt
         if not (abs(m - round(m)) < 1e-9 and 1 <= round(m) < horizon):
             raise ProblemError(f"re-planning period {self.period:g} s: must be a multiple of the planner's dt = {dt:g} s "
@@ -56,6 +69,7 @@ class Replan:
     iterations: int
     kept: bool  # False: the previous plan went on
     estimate: dict[str, float] = field(default_factory=dict)
+    remainder: list | None = None  # the re-planned samples k..N (task's channel order), to plot
 
 
 @dataclass
@@ -90,7 +104,7 @@ class RecedingPlanner:
 
     def __init__(self, direct: DirectPlanner, config: RecedingConfig | None = None,
                  estimator: Callable[[np.ndarray, Mapping[str, float], float], dict[str, float]] | None = None):
-        self.direct, self.config, self.estimator = direct, config or RecedingConfig(), estimator
+        self.direct, self.config, self.estimator = direct, config or RecedingConfig.of(direct.problem), estimator
         pr = direct.problem
         self.every = self.config.steps(pr.dt, pr.steps)
 
@@ -117,11 +131,18 @@ class RecedingPlanner:
                 belief = {**belief, **self.estimator(measured, told, dt)}
             guess = plan.values.copy()
             guess[:k] = measured
+            if self.config.trigger == "judge":
+                p_now = self.direct.probability(guess, belief)
+                if p_now >= pr.p_target:  # what was measured and the rest of the plan still convince the judge
+                    replans.append(Replan(k * dt, k, "plan kept", p_now, time.perf_counter() - t0, 0, False))
+                    k += self.every
+                    continue
             r = self.direct.with_prefix(measured).solve(belief, guess=Plan(dt, guess, plan.channels))
             seconds = time.perf_counter() - t0
             kept = r.status == "solved" and r.plan is not None
             replans.append(Replan(k * dt, k, r.status, r.predicted_success, seconds, r.iterations, kept,
-                                  {kk: belief[kk] for kk in belief if belief[kk] != told.get(kk)}))
+                                  {kk: belief[kk] for kk in belief if belief[kk] != told.get(kk)},
+                                  None if r.plan is None else r.plan.values[k:].tolist()))
             if kept:  # the commands already carried out stay; the rest is the new plan's
                 plan = Plan(dt, np.vstack([plan.values[:k], r.plan.values[k:]]), plan.channels)
             k += self.every

@@ -20,8 +20,10 @@ ENV = {"y_obj": 0.19, "mu": 2.0}
 @pytest.mark.parametrize("period, message", [(0.07, "multiple of the planner's dt"), (1.5, "shorter than the horizon")])
 def test_a_period_the_planner_cannot_keep_is_refused(period, message):
     with pytest.raises(ProblemError, match=message):
-        RecedingConfig(period).steps(0.05, 30)
-    assert RecedingConfig(0.15).steps(0.05, 30) == 3
+        RecedingConfig(period, "always").steps(0.05, 30)
+    assert RecedingConfig(0.15, "judge").steps(0.05, 30) == 3
+    with pytest.raises(ProblemError, match="choose one of judge, always"):
+        RecedingConfig(0.1, "sometimes").steps(0.05, 30)
 
 
 @pytest.fixture(scope="module")
@@ -60,9 +62,15 @@ def test_a_re_plan_keeps_the_measured_part_and_holds_the_limits_on_the_rest(setu
 def test_a_closed_loop_execution_logs_every_re_plan(setup):
     problem, planners, sim = setup
     first = planners.solve(ENV)[1]
-    loop = RecedingPlanner(planners.direct).execute(sim, first, ENV, {**ENV, "y_obj": 0.22})
+    loop = RecedingPlanner(planners.direct, RecedingConfig(0.1, "always")).execute(sim, first, ENV,
+                                                                                  {**ENV, "y_obj": 0.22})
     assert [r.k for r in loop.replans] == list(range(2, 27, 2))  # every 0.1 s until 0.2 s before the end
-    assert all(r.seconds > 0 and r.status for r in loop.replans)
+    assert all(r.seconds > 0 and r.status != "plan kept" for r in loop.replans)
+    # the problem's trigger, the judge: in the world as told it stays convinced, so the plan goes on unchanged
+    judged = RecedingPlanner(planners.direct).execute(sim, first, ENV, ENV)
+    assert [r.status for r in judged.replans] == ["plan kept"] * 13
+    assert all(r.predicted >= problem.p_target for r in judged.replans)
+    np.testing.assert_array_equal(judged.executed.values, first.plan.values)
     np.testing.assert_array_equal(loop.executed.values[:2], first.plan.values[:2])  # carried out before any re-plan
     assert loop.response.shape == (31, 3) and isinstance(loop.outcome.success, bool)
 
@@ -72,7 +80,7 @@ def test_solve_receding_in_a_world_unlike_the_one_told(tmp_path, capsys):
     import json
 
     assert main(["solve", "--problem", "problems/paper_sim_slow.toml", "--method", "receding", "--simulate-env",
-                 "y_obj=0.22", "--json"]) == 0
+                 "y_obj=0.22", "--replan-trigger", "always", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     rec = next(r for r in out["results"] if r["method"] == "receding")
     assert rec["status"] == "executed" and rec["simulated_success"] is not None
