@@ -88,6 +88,16 @@ class WorldSimulator(Simulator):
         finally:
             self.driver.sensor_model = None
 
+    def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Any:
+        """Start executing `plan`, made for `env` (the told environment), in the perturbed world,
+        to be stepped; the sensor's bias and noise stay on until the next `simulate`."""
+        size = self.world.get("size_factor")
+        if size is not None:
+            return self._scaled(size).execute(plan, env, record)
+        self.driver.sensor_model = sensor_model(self.world.get("sensor_bias", 0.0), self.world.get("sensor_noise", 0.0),
+                                                np.eye(3), self.seed)
+        return super().execute(plan, self.task.true_env(env, self.world), record)
+
     def close(self) -> None:
         for sim in self._sized.values():
             sim.close()

@@ -51,3 +51,18 @@ def test_a_new_command_changes_only_what_follows(sim):
     assert abs(x[20, 2] - 8.0) < 3.0 and abs(ref.f[20] - 15.0) < 3.0  # then the arm presses what it is told
     with pytest.raises(ValueError, match="period and horizon"):
         sim.start(first, 0.19, 2.0).advance(Plan(0.1, first.values[::2], first.channels), 3)
+
+
+def test_an_execution_in_a_perturbed_world_is_its_replay():
+    sim = get_task("scoop").simulator()
+    plan = _plan()
+    world = {"y_obj_offset": 0.02, "sensor_noise": 0.5, "mu_factor": 1.5}
+    sim.perturb(world, seed=3)
+    replay = sim.simulate(plan, {"y_obj": 0.19, "mu": 2.0})
+    sim.perturb(world, seed=3)
+    run = sim.execute(plan, {"y_obj": 0.19, "mu": 2.0})
+    run.advance(plan, 12)
+    out = run.outcome()
+    np.testing.assert_array_equal(out.response, replay.response)
+    assert out.success == replay.success
+    sim.close()
