@@ -157,57 +157,111 @@ class ScrapeSimulator(TaskSimulator):
         return np.array(pb.getBasePositionAndOrientation(self.puck, physicsClientId=self.client)[0])
 
     def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:
-        """Replay `plan` ([x, y, xdot, ydot, f]; a Plan or an array at the default period)."""
+        """Replay `plan` ([x, y, xdot, ydot, f]; a Plan or an array at the default period): an
+        `Execution` stepped through at once."""
+        run = self.start(plan, env, record)
+        run.advance(run.plan, run.plan.horizon)
+        return run.outcome()
+
+    def start(self, plan: Any, env: Mapping[str, float], record: int = 0) -> "Execution":
+        """Start executing `plan` in `env` as it is (settled onto its first force at its first
+        position), to be stepped with `Execution.advance`, which may be given a re-planned command."""
         plan = plan if isinstance(plan, Plan) else Plan.from_array(DEFAULT_DT, plan, CHANNELS)
         check_plan(plan)
-        env = self.task.check_env(env)
-        cfg, ctl, step = self.config, self.driver.controller, self.config.timestep
-        self._reset(env)
-        start = self.puck_position()
-        cmd = TaskCommand(position=np.array([plan.x[0], plan.y[0], self.z_contact]), rotation=self.rotation)
-        for i in range(n_settle := int(round(cfg.settle_time / step))):
-            cmd.force_z = plan.f[0] * (i + 1) / n_settle
-            self.driver.step(cmd)
-        t, fine = plan.resample(step)
-        every = int(round(plan.dt / step))
-        response = np.zeros((plan.horizon + 1, 5))
-        force = np.zeros(len(t))
-        velocity = np.zeros(6)
-        max_lift = 0.0
-        frames: list = []
-        for i in range(len(t)):
-            cmd.position[0], cmd.position[1] = fine[i, 0], fine[i, 1]
-            velocity[0], velocity[1] = fine[i, 2], fine[i, 3]
-            cmd.velocity = velocity
-            cmd.force_z = fine[i, 4]
-            if i % every == 0:  # sample the response before the step that starts at t_k
-                response[i // every, :4] = ctl.position[0], ctl.position[1], ctl.velocity[0], ctl.velocity[1]
-            self.driver.step(cmd)
-            force[i] = ctl.f_est[2]
-            max_lift = max(max_lift, ctl.position[2] - self.z_contact)
-            if record and i % record == 0:
-                frames.append((ctl.position.copy(), self.puck_position()))
-        for k in range(plan.horizon + 1):  # the force over the window centred on each sample
-            response[k, 4] = force[max(0, k * every - every // 2):min(len(force), k * every + every // 2 + 1)].mean()
-        after_motion = self.puck_position()
-        lift = TaskCommand(position=ctl.position.copy(), rotation=self.rotation, selection=np.ones(6))
-        z0, n_lift = ctl.position[2], int(round(cfg.lift_time / step))
-        for i in range(n_lift + int(round(cfg.fall_time / step))):
-            s = min(1.0, (i + 1) / n_lift)
-            lift.position[2] = z0 + cfg.lift_height * (0.5 - 0.5 * math.cos(math.pi * s))
-            self.driver.step(lift)
-        end = self.puck_position()
-        in_tray = bool(abs(end[0] - cfg.tray_x) <= cfg.tray_inner_half_x and Y_EDGE < end[1] <= Y_EDGE + cfg.tray_length
-                       and end[2] < cfg.tray_wall_top)
-        pushed = float(after_motion[1] - start[1])
-        details = {"in_tray": in_tray, "pushed": pushed, "blade_max_lift": float(max_lift),
-                   "puck_end": end.tolist(), "puck_after_motion": after_motion.tolist()}
-        if record:
-            details["frames"] = frames
-        # a search scored by the simulator: success first, then how far towards the edge
-        progress = 10.0 * in_tray + min(max(pushed / max(Y_EDGE - start[1], 1e-6), 0.0), 1.0)
-        return Outcome(in_tray, response, details, progress)
+        return Execution(self, plan, self.task.check_env(env), record)
+
+    def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> "Execution":
+        """The task interface's stepping (`start`; a perturbed world's simulator overrides it)."""
+        return self.start(plan, env, record)
 
     def close(self) -> None:
         if pb.isConnected(self.client):
             pb.disconnect(self.client)
+
+
+class Execution:
+    """One scrape, stepped: `advance(plan, k)` runs the control steps up to planner sample k of
+    `plan` (which may differ from the plan it started with), `measured()` is the response so far
+    (the force of each sample averaged over the steps around it that have been taken), `outcome()`
+    finishes the plan, lifts and judges."""
+
+    def __init__(self, sim: ScrapeSimulator, plan: Plan, env: Mapping[str, float], record: int = 0):
+        self.sim, self.plan, self.record = sim, plan, record
+        cfg, step = sim.config, sim.config.timestep
+        sim._reset(env)
+        self.start = sim.puck_position()
+        self.cmd = TaskCommand(position=np.array([plan.x[0], plan.y[0], sim.z_contact]), rotation=sim.rotation)
+        for i in range(n_settle := int(round(cfg.settle_time / step))):
+            self.cmd.force_z = plan.f[0] * (i + 1) / n_settle
+            sim.driver.step(self.cmd)
+        self.every = int(round(plan.dt / step))
+        self.n_fine = plan.horizon * self.every + 1
+        self.response = np.zeros((plan.horizon + 1, 5))
+        self.force = np.zeros(self.n_fine)
+        self.velocity = np.zeros(6)
+        self.max_lift = 0.0
+        self.frames: list = []
+        self.i = 0
+
+    @property
+    def k(self) -> int:
+        """Planner samples measured so far."""
+        return -(-self.i // self.every)
+
+    def _force(self, k: int, upto: int) -> float:
+        """Sample k's force: the mean over the steps within half a period of it, of those taken."""
+        return self.force[max(0, k * self.every - self.every // 2):min(upto, k * self.every + self.every // 2 + 1)].mean()
+
+    def measured(self) -> np.ndarray:
+        out = self.response[:self.k].copy()
+        for k in range(self.k):
+            out[k, 4] = self._force(k, self.i)
+        return out
+
+    def advance(self, plan: Plan, k: int) -> None:
+        if plan.dt != self.plan.dt or plan.horizon != self.plan.horizon:
+            raise ValueError("a re-planned command must keep the period and horizon of the first")
+        self.plan = plan
+        sim, ctl = self.sim, self.sim.driver.controller
+        _, fine = plan.resample(sim.config.timestep)
+        cmd, velocity = self.cmd, self.velocity
+        while self.i <= min(k * self.every, len(fine) - 1):
+            i = self.i
+            cmd.position[0], cmd.position[1] = fine[i, 0], fine[i, 1]
+            velocity[0], velocity[1] = fine[i, 2], fine[i, 3]
+            cmd.velocity = velocity
+            cmd.force_z = fine[i, 4]
+            if i % self.every == 0:  # sample the response before the step that starts at t_k
+                self.response[i // self.every, :4] = ctl.position[0], ctl.position[1], ctl.velocity[0], ctl.velocity[1]
+            sim.driver.step(cmd)
+            self.force[i] = ctl.f_est[2]
+            self.max_lift = max(self.max_lift, ctl.position[2] - sim.z_contact)
+            if self.record and i % self.record == 0:
+                self.frames.append((ctl.position.copy(), sim.puck_position()))
+            self.i += 1
+
+    def outcome(self) -> Outcome:
+        self.advance(self.plan, self.plan.horizon)
+        sim, cfg, ctl, step = self.sim, self.sim.config, self.sim.driver.controller, self.sim.config.timestep
+        response = self.response
+        for k in range(self.plan.horizon + 1):  # the force over the window centred on each sample
+            response[k, 4] = self._force(k, self.n_fine)
+        after_motion = sim.puck_position()
+        lift = TaskCommand(position=ctl.position.copy(), rotation=sim.rotation, selection=np.ones(6))
+        z0, n_lift = ctl.position[2], int(round(cfg.lift_time / step))
+        for i in range(n_lift + int(round(cfg.fall_time / step))):
+            s = min(1.0, (i + 1) / n_lift)
+            lift.position[2] = z0 + cfg.lift_height * (0.5 - 0.5 * math.cos(math.pi * s))
+            sim.driver.step(lift)
+        end = sim.puck_position()
+        in_tray = bool(abs(end[0] - cfg.tray_x) <= cfg.tray_inner_half_x and Y_EDGE < end[1] <= Y_EDGE + cfg.tray_length
+                       and end[2] < cfg.tray_wall_top)
+        pushed = float(after_motion[1] - self.start[1])
+        details = {"in_tray": in_tray, "pushed": pushed, "blade_max_lift": float(self.max_lift),
+                   "puck_end": end.tolist(), "puck_after_motion": after_motion.tolist()}
+        if self.record:
+            details["frames"] = self.frames
+        # a search scored by the simulator: success first, then how far towards the edge
+        progress = 10.0 * in_tray + min(max(pushed / max(Y_EDGE - self.start[1], 1e-6), 0.0), 1.0)
+        return Outcome(in_tray, response, details, progress)
+

@@ -49,3 +49,11 @@ class ScrapeWorldSimulator(ScrapeSimulator):
             return super().simulate(plan, true, record)
         finally:
             self.driver.sensor_model = None
+
+    def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Any:
+        """Start executing `plan`, made for `env` (the told environment), in the perturbed world,
+        to be stepped; the sensor's bias and noise stay on until the next `simulate`."""
+        self.driver.sensor_model = sensor_model(self.world.get("sensor_bias", 0.0), self.world.get("sensor_noise", 0.0),
+                                                self.rotation, self.seed)
+        return self.start(plan, self.task.true_env(env, self.world), record)
+
