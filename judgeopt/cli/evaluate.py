@@ -344,7 +344,9 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--n", type=positive, default=100, help="environments per row")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
-    e.add_argument("--methods", nargs="+", choices=("amortized", "direct", "cem"),
+    from judgeopt.planners.base import planner_names
+
+    e.add_argument("--methods", nargs="+", choices=planner_names(),
                    help="planners to include (default all of the table's)")
     e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
     e.add_argument("--judge", metavar="STEM", help="run every planner row against this judge instead (rows renamed)")

@@ -153,7 +153,8 @@ def _with_method(path: str, method: str, several: bool) -> Path:
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
-    from judgeopt.planners.solve import METHODS, Planners
+    from judgeopt.planners.base import planner_names
+    from judgeopt.planners.solve import Planners
 
     t0 = time.perf_counter()
     problem = problem_from_args(args)
@@ -166,7 +167,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.planners.receding import RecedingConfig
 
         RecedingConfig.of(problem).steps(problem.dt, problem.steps)
-    methods = {"both": ("amortized", "direct"), "all": METHODS, "receding": ("amortized", "direct")}.get(
+    methods = {"both": ("amortized", "direct"), "all": planner_names(), "receding": ("amortized", "direct")}.get(
         args.method, (args.method,))
     try:
         problem.check_feasible(env)
@@ -491,9 +492,12 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
     add_problem_arguments(s)
-    s.add_argument("--method", choices=("direct", "amortized", "cem", "both", "all", "receding"), default="both",
+    from judgeopt.planners.base import RESERVED, planner_names
+
+    s.add_argument("--method", choices=(*planner_names(), *RESERVED), default="both",
                    help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
-                   "baseline (cross-entropy method over spline commands, same judge); all: the three; receding: "
+                   "baseline (cross-entropy method over spline commands, same judge); any other registered planner "
+                   "(judgeopt.planners.base.register); all: every one; receding: "
                    "both, then the direct plan executed in simulation and, every [solver] replan_period (0.1 s), "
                    "re-solved from what the arm measured (when the judge asks for it: [solver] replan_trigger)")
     s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",

@@ -28,7 +28,9 @@ from judgeopt.tasks.tables import Row, Table
 def planners() -> list[Row]:
     """Any task: both planners and the CEM against the problem's judge, and random plans within
     the limits, in the problem's own environment ranges."""
-    return [Row(m, m, None) for m in ("amortized", "direct", "cem")] + [
+    from judgeopt.planners.base import planner_names
+
+    return [Row(m, m, None) for m in planner_names()] + [
         Row("no judge (random plans within the limits)", "nojudge", None)]
 
 
@@ -90,9 +92,10 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
 
 def _setting(problem: Problem, row: Row, models_dir: str) -> str | None:
     """The row's calibration.setting_id with the models there are now (None: a baseline without one)."""
-    from judgeopt.planners.solve import METHODS, choose_models
+    from judgeopt.planners.base import REGISTRY
+    from judgeopt.planners.solve import choose_models
 
-    if row.method not in METHODS:
+    if row.method not in REGISTRY:
         return None
     p = problem.with_overrides(**dict(row.overrides)) if row.overrides else problem
     return choose_models(p, (row.method,), row.judge, None, models_dir).settings((row.method,))[row.method]

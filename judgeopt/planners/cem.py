@@ -16,6 +16,8 @@ Each iteration keeps the best `elite` fraction and refits a diagonal Gaussian to
 
 from __future__ import annotations
 
+from typing import Any
+
 import time
 import zlib
 from dataclasses import dataclass
@@ -24,6 +26,7 @@ import numpy as np
 
 from judgeopt.judge.model import Judge
 from judgeopt.planners.dynamics import channel_order, positions
+from judgeopt.planners.base import Planner
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
@@ -103,7 +106,7 @@ class SplineCommands:
         return np.stack(qs + vs + fs, axis=2)[:, :, channel_order(pr)], penalty
 
 
-class CEMPlanner:
+class CEMPlanner(Planner):
     """Cross-entropy search over spline commands, scored by the judge's logit."""
 
     method = "cem"
@@ -112,7 +115,7 @@ class CEMPlanner:
         self.problem, self.judge, self.config = problem, judge, config or CEMConfig()
         self.commands = SplineCommands(problem, self.config.knots)
 
-    def solve(self, env: dict[str, float]) -> PlanResult:
+    def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
         from judgeopt.planners.direct import judge_env
 
         pr, cfg = self.problem, self.config

@@ -38,6 +38,7 @@ from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts
+from judgeopt.planners.base import Planner
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
@@ -96,7 +97,7 @@ class DirectOptions:
     ipopt: dict = field(default_factory=dict)
 
 
-class DirectPlanner:
+class DirectPlanner(Planner):
     """Ipopt over the judge's CasADi function for one problem (any environment in it)."""
 
     method = "direct"

@@ -20,6 +20,8 @@ state, horizon) stay fixed to the problem it was trained on.
 
 from __future__ import annotations
 
+from typing import Any
+
 import time
 from dataclasses import asdict, dataclass
 
@@ -29,6 +31,7 @@ from torch import nn
 
 from judgeopt.planners.dynamics import channel_order, plan_from_parts
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges, limits_of
+from judgeopt.planners.base import Planner
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals
 from judgeopt.trajectory import Plan
@@ -148,7 +151,7 @@ class Generator(nn.Module):
         return torch.cat([torch.stack(qs, 1), torch.stack(vs, 1), torch.stack(fs, 1)], dim=2)[:, :, channel_order(pr)]
 
 
-class AmortizedPlanner:
+class AmortizedPlanner(Planner):
     """Plans with a trained generator in milliseconds; constraints are soft (penalties in
     training), so the residuals are measured and reported, never assumed to be zero."""
 
@@ -201,7 +204,7 @@ class AmortizedPlanner:
             q, v = q + 0.5 * dt * (v + v_next), v_next
         return plan_from_parts(self.problem, qs, vs, fs)
 
-    def solve(self, env: dict[str, float]) -> PlanResult:
+    def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
         env = self.problem.env_dict(env)
         t0 = time.perf_counter()
         plan = self.plan(env)

@@ -18,6 +18,7 @@ import numpy as np
 
 from judgeopt.files import resolve
 from judgeopt.judge.model import Judge
+from judgeopt.planners.base import REGISTRY, Planner, planner_names
 from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
@@ -25,6 +26,7 @@ from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.trajectory import PlanError
 
+#: the built-in planners (`judgeopt.planners.base.REGISTRY` holds them and any added one)
 METHODS = ("amortized", "direct", "cem")
 #: samples per environment variable given as a range "somewhere in here" (env_grid): its ends and
 #: middle, or five points where only one variable is uncertain
@@ -112,6 +114,7 @@ class Planners:
     generator_given: str | Path | None = None  # a generator named by the user is never swapped
     loaded: dict = field(default_factory=dict)  # generator path -> (Generator, meta), shared by with_limits copies
     for_sets: dict = field(default_factory=dict)  # (samples, case) -> the direct solve for environment sets
+    added: dict[str, Planner] = field(default_factory=dict)  # registered planners besides the built-ins, by name
 
     @classmethod
     def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
@@ -124,9 +127,9 @@ class Planners:
         from judgeopt.planners.limits import coverage_notes
         from judgeopt.planners.store import load_generator, matches
 
-        bad = [m for m in methods if m not in METHODS]
+        bad = [m for m in methods if m not in REGISTRY]
         if bad or not methods:
-            raise ProblemError(f"unknown method(s) {bad}; choose from {list(METHODS)}")
+            raise ProblemError(f"unknown method(s) {bad}; choose from {list(planner_names())}")
         chosen = choose_models(problem, methods, judge, generator, models_dir)
         jmodel, jmeta = load_judge(chosen.judge)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
@@ -183,7 +186,8 @@ class Planners:
             out.direct = DirectPlanner(problem, jmodel, cj, members=members, trust=trust)
         if "cem" in methods:
             out.cem = CEMPlanner(problem, jmodel)
-        out.methods = tuple(m for m in METHODS if m in methods)
+        out.added = {m: REGISTRY[m].build(problem, jmodel) for m in methods if m not in METHODS}
+        out.methods = tuple(m for m in planner_names() if m in methods)
         out._settings(chosen)
         return out
 
@@ -243,6 +247,7 @@ class Planners:
             out.direct = self.direct.with_limits(problem)
         if self.cem is not None:
             out.cem = CEMPlanner(problem, self.judge, self.cem.config)
+        out.added = {m: p.with_limits(problem) for m, p in self.added.items()}
         out._settings(chosen)
         return out
 
@@ -276,6 +281,7 @@ class Planners:
                 results.append(self.direct.solve(env, guess=guess))
         if self.cem is not None:
             results.append(self.cem.solve(env))
+        results += [p.solve(env) for p in self.added.values()]
         for r in results:
             limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
             r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,
