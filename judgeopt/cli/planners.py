@@ -153,36 +153,28 @@ def _with_method(path: str, method: str, several: bool) -> Path:
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
-    from judgeopt.planners.base import planner_names
+    from judgeopt.planners import session
     from judgeopt.planners.solve import Planners
 
     t0 = time.perf_counter()
     problem = problem_from_args(args)
     env = problem.nominal_env()
-    told_world = simulated_world(problem, args.simulate_env)  # checked before any solver runs
-    if args.method == "receding" and not args.simulate:
-        raise CLIError("--method receding re-plans while the plan is executed in simulation; drop --no-simulate")
+    told = session.simulated_world(problem, _assignments(args.simulate_env))  # checked before any solver runs
     receding = args.method == "receding"
+    if receding and not args.simulate:
+        raise CLIError("--method receding re-plans while the plan is executed in simulation; drop --no-simulate")
     if receding:
         from judgeopt.planners.receding import RecedingConfig
 
         RecedingConfig.of(problem).steps(problem.dt, problem.steps)
-    methods = {"both": ("amortized", "direct"), "all": planner_names(), "receding": ("amortized", "direct")}.get(
-        args.method, (args.method,))
     try:
         problem.check_feasible(env)
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
-    fallback = None
-    if args.method in ("both", "receding") and not args.generator:
-        from judgeopt.planners.solve import choose_models
-
-        if choose_models(problem, methods, None, None, args.models).generator is None:
-            methods, fallback = ("direct",), ("no generator covers these limits: the direct solve runs alone, from "
-                                              "its min-jerk guess (train one with `judgeopt train-generator`)")
+    methods, fallback = session.methods_for(problem, args.method, args.generator, args.models)
     several = len(methods) > 1
     targets = [_with_method(path, m, several) for path in (args.out, args.save_json, args.export) if path
-               for m in methods]
+               for m in (*methods, *(("receding",) if receding else ()))]
     if args.export:  # its format from the suffix, checked before any solver runs
         from judgeopt.cli.export import export_format
 
@@ -203,28 +195,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.tasks import get_task
 
         sim = get_task(problem.task).simulator()
-    env_set = None
-    uncertain = ranges_given(args, problem)
-    if uncertain and planners.direct is not None:
-        from judgeopt.planners.solve import env_grid
-
-        env_set = env_grid(env, uncertain, planners.judge.config.env_names)
-        where = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in uncertain.items())
-        planners.notes.append(f"direct: planned for the {args.range_case} case over {len(env_set)} environments "
-                              f"({where}); the others for its middle ({', '.join(f'{k} = {env[k]:g}' for k in uncertain)})")
-    results = planners.solve(env, simulator=sim, warm_start=args.warm_start, env_set=env_set, case=args.range_case,
-                             world=told_world)
-    if receding:
-        results.append(_receding(planners, sim, results, env, {**problem.world_env(env), **told_world}))
-    planned = [r for r in results if r.verdict is not None]
-    unlikely = bool(planned) and all(r.verdict == "unlikely" for r in planned)
-    suggestions = []
-    if unlikely and args.suggest:
-        from judgeopt.planners.suggest import suggest
-
-        t_s = time.perf_counter()
-        suggestions = suggest(planners, env, results)
-        t_suggest = time.perf_counter() - t_s
+    report = session.solve(planners, simulator=sim, world=told, warm_start=args.warm_start,
+                           ranges=ranges_given(args, problem), range_case=args.range_case, receding=receding,
+                           suggest=args.suggest)
+    results, suggestions, unlikely = report.results, report.suggestions, report.unlikely
+    several = several or receding
     files = []
     for r in results:
         if r.plan is not None and args.out:
@@ -249,8 +224,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.planners.export import plot_plans
 
         files.append(save_figure(plot_plans(problem, results), args.plot))
-    infeasible = any(r.status == "infeasible" for r in results)
-    verdict = "infeasible" if infeasible else "unlikely" if unlikely else "likely"
+    infeasible, verdict = report.infeasible, report.verdict
     if args.json:
         print(json.dumps({"status": "infeasible" if infeasible else "ok", "verdict": verdict,
                           "suggestions": [x.to_json() for x in suggestions], "problem": problem.to_dict(),
@@ -261,10 +235,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
                           "results": [r.to_json() for r in results]}))
     else:
         envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
-        world = {k: v for k, v in problem.world_env(env).items() if k not in env}
-        world.update(told_world)
-        if args.simulate and world:  # what the simulated world has besides (or instead of) what the planners read
-            envs += f"; simulated with {', '.join(f'{k} = {v:g}' for k, v in world.items())}"
+        if args.simulate and report.world:  # what the simulated world has besides (or instead of) what was said
+            envs += f"; simulated with {', '.join(f'{k} = {v:g}' for k, v in report.world.items())}"
         ends = ", ".join("free" if np.isnan(e) else f"{e:g}" for e in problem.terminal_positions(env))
         print(f"{problem.name} ({problem.task}): q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in "
               f"[{problem.f_min}, {problem.f_max}] N, q from {problem.q0} to {ends} m in "
@@ -296,66 +268,29 @@ def cmd_solve(args: argparse.Namespace) -> int:
         for f in files:
             print(f"wrote {f}")
         if unlikely:
-            top = max(planned, key=lambda r: r.success_probability)
+            top = max((r for r in results if r.verdict is not None), key=lambda r: r.success_probability)
             print(f"judgeopt solve: no plan is likely to succeed under these limits (best p = "
                   f"{top.success_probability:.2f}, {top.method})")
             for x in suggestions:
                 print(f"  {x.text()}")
             if args.suggest:
-                print(f"  (searched by re-planning in {t_suggest:.1f} s)" if suggestions else
+                print(f"  (searched by re-planning in {report.suggest_seconds:.1f} s)" if suggestions else
                       "  no single limit relaxed within the demonstrations' range (f_max, q̇_max, f_min) makes a plan "
                       "likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
     return ExitCode.INFEASIBLE if infeasible else ExitCode.UNLIKELY if unlikely else ExitCode.OK
 
 
-def simulated_world(problem: Problem, items: list[str] | None) -> dict[str, float]:
-    """--simulate-env NAME=VALUE ...: the simulated world's values where it differs from what the
-    planners were told, each a variable of the task within its scene's physical range."""
-    from judgeopt.tasks import get_task
-
-    task = get_task(problem.task)
+def _assignments(items: list[str] | None) -> dict[str, float]:
+    """--simulate-env NAME=VALUE ... as numbers (what they name is checked by the session)."""
     out: dict[str, float] = {}
     for item in items or ():
-        name, eq, value = (x.strip() for x in item.partition("="))
-        if name not in task.env_names:
-            raise CLIError(f"--simulate-env {item}: {name!r} is not a variable of task {task.name!r} (it has "
-                           f"{', '.join(task.env_names)})")
+        name, _, value = (x.strip() for x in item.partition("="))
         try:
             out[name] = float(value)
         except ValueError:
             raise CLIError(f"--simulate-env {item}: {value!r} is not a number (NAME=VALUE, e.g. y_obj=0.22)") from None
-        lo, hi = next(v.physical for v in task.env_vars if v.name == name)
-        if not lo <= out[name] <= hi:
-            raise CLIError(f"--simulate-env {item}: outside the {task.name} scene's physical range [{lo:g}, {hi:g}]")
     return out
-
-
-def _receding(planners: Any, sim: Any, results: list, env: dict, world: dict) -> Any:
-    """The direct plan executed in `world` with re-planning from the measured response, as a
-    result row (its p: the last re-plan's; its outcome: the closed loop's)."""
-    import dataclasses as dc
-
-    from judgeopt.planners.receding import RecedingConfig, RecedingPlanner
-    from judgeopt.planners.result import assess
-
-    first = next(r for r in results if r.method == "direct")
-    pr = planners.problem
-    loop = RecedingPlanner(planners.direct, RecedingConfig.of(pr)).execute(sim, first, env, world)
-    kept = [r for r in loop.replans if r.kept]
-    solves = [r for r in loop.replans if r.status != "plan kept"]
-    p = kept[-1].predicted if kept else first.predicted_success
-    total = sum(r.seconds for r in loop.replans)
-    out = dc.replace(first, method="receding", plan=loop.executed, predicted_success=p, status="executed",
-                     solve_time_s=total, iterations=sum(r.iterations for r in loop.replans),
-                     simulated_success=bool(loop.outcome.success), response=loop.response,
-                     info={"warm_start": first.info.get("warm_start"), "closed_loop": loop.summary(),
-                           "replan_log": [dc.asdict(r) for r in loop.replans],
-                           **{f"sim_{k}": v for k, v in loop.outcome.details.items()
-                              if isinstance(v, (bool, int, float))}},
-                     message=f"{len(loop.replans)} checks every {pr.replan_period:g} s (trigger {pr.replan_trigger}), "
-                     f"{len(solves)} re-solved, {len(kept)} re-plans kept")
-    return assess(out)
 
 
 def _replan_rows(r: Any) -> str:

@@ -1,0 +1,144 @@
+"""One planning request from start to verdict, as a library call: which planners run (and the
+fallback when no generator covers the limits), the world they are simulated in, the closed-loop
+execution of the receding planner, and what would make an unlikely plan likely. `judgeopt solve`
+only formats the `SolveReport` and writes its files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+from judgeopt.planners.base import planner_names
+from judgeopt.planners.problem import Problem, ProblemError
+
+#: `method` values that name several planners
+GROUPS = {"both": ("amortized", "direct"), "receding": ("amortized", "direct")}
+#: said when no generator covers the limits and "both" was asked for
+NO_GENERATOR = ("no generator covers these limits: the direct solve runs alone, from its min-jerk guess (train one "
+                "with `judgeopt train-generator`)")
+
+
+def methods_for(problem: Problem, method: str, generator: str | None = None,
+                models_dir: str = "models") -> tuple[tuple[str, ...], str | None]:
+    """The planners `method` names ("both", "all", "receding" or one planner), and a note when
+    the generator's part falls away because none covers the limits."""
+    methods = {**GROUPS, "all": planner_names()}.get(method, (method,))
+    if method in GROUPS and not generator:
+        from judgeopt.planners.solve import choose_models
+
+        if choose_models(problem, methods, None, None, models_dir).generator is None:
+            return ("direct",), NO_GENERATOR
+    return tuple(methods), None
+
+
+def simulated_world(problem: Problem, items: Mapping[str, float] | None) -> dict[str, float]:
+    """Where the simulated world differs from what the planners were told (`--simulate-env`):
+    each a variable of the task, within its scene's physical range."""
+    from judgeopt.tasks import get_task
+
+    task = get_task(problem.task)
+    out: dict[str, float] = {}
+    for name, value in (items or {}).items():
+        if name not in task.env_names:
+            raise ProblemError(f"--simulate-env {name}={value:g}: {name!r} is not a variable of task {task.name!r} (it "
+                               f"has {', '.join(task.env_names)})")
+        lo, hi = next(v.physical for v in task.env_vars if v.name == name)
+        if not lo <= value <= hi:
+            raise ProblemError(f"--simulate-env {name}={value:g}: outside the {task.name} scene's physical range "
+                               f"[{lo:g}, {hi:g}]")
+        out[name] = float(value)
+    return out
+
+
+@dataclass
+class SolveReport:
+    """Every planner's result for the problem's environment, with the notes, the world it was
+    simulated in and, where no plan is likely, the limit changes that would make one."""
+
+    problem: Problem
+    env: dict[str, float]
+    planners: Any  # judgeopt.planners.solve.Planners
+    results: list
+    world: dict[str, float] = field(default_factory=dict)  # what the simulated world has besides env, or instead
+    suggestions: list = field(default_factory=list)
+    suggest_seconds: float | None = None
+
+    @property
+    def notes(self) -> list[str]:
+        return self.planners.notes
+
+    @property
+    def infeasible(self) -> bool:
+        return any(r.status == "infeasible" for r in self.results)
+
+    @property
+    def unlikely(self) -> bool:
+        planned = [r for r in self.results if r.verdict is not None]
+        return bool(planned) and all(r.verdict == "unlikely" for r in planned)
+
+    @property
+    def verdict(self) -> str:
+        return "infeasible" if self.infeasible else "unlikely" if self.unlikely else "likely"
+
+
+def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | None = None,
+          warm_start: str = "generator", ranges: Mapping[str, tuple[float, float]] | None = None,
+          range_case: str = "worst", receding: bool = False, suggest: bool = True) -> SolveReport:
+    """Plan for the problem's nominal environment with `planners` (`Planners.load`).
+    `simulator`: replay each plan there, in the problem's world changed by `world`; `ranges`:
+    the direct solve plans over a grid of these (env_grid), in their `range_case`; `receding`:
+    then execute the direct plan with re-planning (needs the simulator); `suggest`: where every
+    plan is unlikely, search for the limit changes that would make one likely."""
+    problem = planners.problem
+    env = problem.nominal_env()
+    world = simulated_world(problem, world)
+    if receding and simulator is None:
+        raise ProblemError("the receding planner re-plans while its plan is executed in simulation: give a simulator")
+    env_set = None
+    if ranges and planners.direct is not None:
+        from judgeopt.planners.solve import env_grid
+
+        env_set = env_grid(env, dict(ranges), planners.judge.config.env_names)
+        where = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in ranges.items())
+        planners.notes.append(f"direct: planned for the {range_case} case over {len(env_set)} environments "
+                              f"({where}); the others for its middle ({', '.join(f'{k} = {env[k]:g}' for k in ranges)})")
+    results = planners.solve(env, simulator=simulator, warm_start=warm_start, env_set=env_set, case=range_case,
+                             world=world)
+    if receding:
+        results.append(closed_loop(planners, simulator, results, env, {**problem.world_env(env), **world}))
+    report = SolveReport(problem, env, planners, results,
+                         {**{k: v for k, v in problem.world_env(env).items() if k not in env}, **world})
+    if report.unlikely and suggest:
+        from judgeopt.planners.suggest import suggest as search
+
+        t0 = time.perf_counter()
+        report.suggestions = search(planners, env, results)
+        report.suggest_seconds = time.perf_counter() - t0
+    return report
+
+
+def closed_loop(planners: Any, sim: Any, results: list, env: dict, world: dict) -> Any:
+    """The direct plan executed in `world` with re-planning from the measured response, as a
+    result row (its p: the last re-plan's; its outcome: the closed loop's)."""
+    from judgeopt.planners.receding import RecedingConfig, RecedingPlanner
+    from judgeopt.planners.result import assess
+
+    first = next(r for r in results if r.method == "direct")
+    pr = planners.problem
+    loop = RecedingPlanner(planners.direct, RecedingConfig.of(pr)).execute(sim, first, env, world)
+    kept = [r for r in loop.replans if r.kept]
+    solves = [r for r in loop.replans if r.status != "plan kept"]
+    p = kept[-1].predicted if kept else first.predicted_success
+    out = dataclasses.replace(
+        first, method="receding", plan=loop.executed, predicted_success=p, status="executed",
+        solve_time_s=sum(r.seconds for r in loop.replans), iterations=sum(r.iterations for r in loop.replans),
+        simulated_success=bool(loop.outcome.success), response=loop.response,
+        info={"warm_start": first.info.get("warm_start"), "closed_loop": loop.summary(),
+              "replan_log": [dataclasses.asdict(r) for r in loop.replans],
+              **{f"sim_{k}": v for k, v in loop.outcome.details.items() if isinstance(v, (bool, int, float))}},
+        message=f"{len(loop.replans)} checks every {pr.replan_period:g} s (trigger {pr.replan_trigger}), "
+                f"{len(solves)} re-solved, {len(kept)} re-plans kept")
+    return assess(out)
