@@ -37,7 +37,7 @@ from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge
 from judgeopt.planners.cold_start import cold_start, default_guess
-from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts
+from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
 from judgeopt.planners.base import Planner
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion
@@ -142,8 +142,8 @@ class DirectPlanner(Planner):
         qs = cs.vertcat(cs.DM(pr.vec("q0")).T if na > 1 else pr.vec("q0")[0], q)
         vs = cs.vertcat(cs.DM(pr.vec("qdot0")).T if na > 1 else pr.vec("qdot0")[0], v)
         # integration as constraints, scaled by the step's typical size
-        g_vel = cs.vec((vs[1:, :] - vs[:-1, :] - a * dt) / (SCALE_V))
-        g_pos = cs.vec((qs[1:, :] - qs[:-1, :] - 0.5 * dt * (vs[:-1, :] + vs[1:, :])) / (SCALE_Q * 0.1))
+        d_vel, d_pos = step_residuals(qs[:-1, :], vs[:-1, :], qs[1:, :], vs[1:, :], a, dt)
+        g_vel, g_pos = cs.vec(d_vel / SCALE_V), cs.vec(d_pos / (SCALE_Q * 0.1))
         ends = [(qs[-1, i] - q_end[j]) / SCALE_Q for j, i in enumerate(np.flatnonzero(self._fixed))]
         qd_end = pr.vec("qdot_end")
         g_term = cs.vertcat(*ends, *[(vs[-1, i] - qd_end[i]) / SCALE_V for i in range(na)])

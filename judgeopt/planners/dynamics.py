@@ -4,8 +4,10 @@ Per step k = 1..N, with a_k the acceleration over [t_{k-1}, t_k]:
     q̇_k = q̇_{k-1} + a_k dt,    q_k = q_{k-1} + dt (q̇_{k-1} + q̇_k) / 2.
 This is exact for constant acceleration, so the sampled (q, q̇) are consistent with the cubic
 Hermite interpolation the controller uses (Plan.resample reproduces the quadratic pieces).
-The same equations are the direct solve's equality constraints and the generator's
-autoregressive integration, so plans from either are directly comparable.
+`step` and `step_residuals` are written once, with arithmetic only, so the same lines serve
+numpy arrays, torch tensors and CasADi expressions: the generator's rollouts (torch and numpy)
+integrate with `step`, the direct solve's equality constraints are `step_residuals`, and the
+checks below use the same trapezoid, so plans from either planner are directly comparable.
 """
 
 from __future__ import annotations
@@ -14,6 +16,17 @@ import numpy as np
 
 from judgeopt.planners.problem import Problem
 from judgeopt.trajectory import Plan
+
+
+def step(q, v, a, dt: float):
+    """One step of the model, for numpy, torch or CasADi alike: (q_k, q̇_k) from (q_{k-1}, q̇_{k-1}) and a_k."""
+    v_next = v + a * dt
+    return q + 0.5 * dt * (v + v_next), v_next
+
+
+def step_residuals(q0, v0, q1, v1, a, dt: float):
+    """How far (q1, v1) is from one step of the model from (q0, v0) with a: velocity, position."""
+    return v1 - v0 - a * dt, q1 - q0 - 0.5 * dt * (v0 + v1)
 
 
 def positions(q0, qdot: np.ndarray, dt: float) -> np.ndarray:
@@ -38,7 +51,8 @@ def accelerations(qdot: np.ndarray, dt: float) -> np.ndarray:
 def dynamics_residual(q: np.ndarray, qdot: np.ndarray, dt: float) -> float:
     """Worst violation of the position update given the velocities (0 for integrated plans)."""
     q, qdot = np.asarray(q, float), np.asarray(qdot, float)
-    return float(np.max(np.abs(np.diff(q) - 0.5 * dt * (qdot[:-1] + qdot[1:])), initial=0.0))
+    _, position = step_residuals(q[:-1], qdot[:-1], q[1:], qdot[1:], 0.0, dt)
+    return float(np.max(np.abs(position), initial=0.0))
 
 
 def plan_from_parts(problem: Problem, q: np.ndarray, v: np.ndarray, f: np.ndarray) -> Plan:

@@ -29,7 +29,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.planners.dynamics import channel_order, plan_from_parts
+from judgeopt.planners.dynamics import channel_order, plan_from_parts, step
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges, limits_of
 from judgeopt.planners.base import Planner
 from judgeopt.planners.problem import Problem
@@ -143,9 +143,7 @@ class Generator(nn.Module):
             fs.append(f)
             if k == n:
                 break
-            v_next = v + a * dt
-            q = q + 0.5 * dt * (v + v_next)
-            v = v_next
+            q, v = step(q, v, a, dt)
             qs.append(q)
             vs.append(v)
         return torch.cat([torch.stack(qs, 1), torch.stack(vs, 1), torch.stack(fs, 1)], dim=2)[:, :, channel_order(pr)]
@@ -200,8 +198,7 @@ class AmortizedPlanner(Planner):
             w, b = self._weights[-1]
             o = w @ h + b
             qs[k], vs[k], fs[k] = q, v, f_mid + f_half * o[:nf]
-            v_next = v + a_scale * o[nf:] * dt
-            q, v = q + 0.5 * dt * (v + v_next), v_next
+            q, v = step(q, v, a_scale * o[nf:], dt)
         return plan_from_parts(self.problem, qs, vs, fs)
 
     def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
