@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 from pathlib import Path
+from typing import Any
 
 from judgeopt.cli.common import (CLIError, QUIET, env_range, floats, jobs_option, name_values, out_option, positive,
                                  seed_option)
@@ -145,28 +146,44 @@ def _report(args: argparse.Namespace, stem: Path, md: str, summary: list[dict], 
     return 0
 
 
-def cmd_robustness(args: argparse.Namespace) -> int:
-    from judgeopt.evaluate.robustness import (DEFAULT_METHODS, markdown_robustness, plot_robustness, robustness_cases,
-                                              robustness_rows, run_replays, summarise_robustness)
-    from judgeopt.evaluate.tables import run_table
+def _problem(args: argparse.Namespace) -> Any:
+    """--problem with --judge, each --qdot-max checked against it before any planning."""
     from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
-    from judgeopt.tasks import get_task
 
     problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
     if args.judge:
         problem = problem.with_overrides(judge=args.judge)
-    task = get_task(problem.task)
-    cases = robustness_cases(task, args.perturb)  # an unknown name fails here, before any planning
-    qdots = tuple(args.qdot_max or (problem.qdot_max,))
-    for q in qdots:
+    for q in args.qdot_max or ():
         problem.with_overrides(qdot_max=q)  # a limit that contradicts the problem: one line, before planning
+    return problem
+
+
+def _planned(args: argparse.Namespace, problem: Any, default_out: str) -> tuple[list, list[str], Path, dict]:
+    """One row per --qdot-max and planner (default amortized and direct), each planned for --n
+    environments (resumable in OUT/partial/): rows, notes, the output folder and the plans."""
+    from judgeopt.evaluate.robustness import DEFAULT_METHODS, robustness_rows
+    from judgeopt.evaluate.tables import run_table
+
+    qdots = tuple(args.qdot_max or (problem.qdot_max,))
     rows, notes = robustness_rows(problem, qdots, tuple(args.methods or DEFAULT_METHODS), args.models)
     if not rows:
         raise CLIError(f"no planner to evaluate: {'; '.join(notes)}")
-    out = Path(args.out or "out/evaluate/robustness")
+    out = Path(args.out or default_out)
     plans = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                       chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    return rows, notes, out, plans
+
+
+def cmd_robustness(args: argparse.Namespace) -> int:
+    from judgeopt.evaluate.robustness import (markdown_robustness, plot_robustness, robustness_cases, run_replays,
+                                              summarise_robustness)
+    from judgeopt.tasks import get_task
+
+    problem = _problem(args)
+    task = get_task(problem.task)
+    cases = robustness_cases(task, args.perturb)  # an unknown name fails here, before any planning
+    rows, notes, out, plans = _planned(args, problem, "out/evaluate/robustness")
     results = run_replays(problem, rows, plans, cases, args.n, args.seed, out, chunk=args.chunk, n_jobs=args.jobs,
                           scheduler=args.scheduler, progress=not args.quiet)
     summary = summarise_robustness(task, rows, cases, results)
@@ -179,24 +196,10 @@ def cmd_robustness(args: argparse.Namespace) -> int:
 def cmd_trials(args: argparse.Namespace) -> int:
     from matplotlib.figure import Figure
 
-    from judgeopt.evaluate.robustness import DEFAULT_METHODS, robustness_rows
-    from judgeopt.evaluate.tables import run_table
     from judgeopt.evaluate.trials import TrialSpread, markdown_trials, run_trials
-    from judgeopt.files import resolve
-    from judgeopt.planners.problem import load_problem
 
-    problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
-    if args.judge:
-        problem = problem.with_overrides(judge=args.judge)
-    qdots = tuple(args.qdot_max or (problem.qdot_max,))
-    for q in qdots:
-        problem.with_overrides(qdot_max=q)  # a limit that contradicts the problem: one line, before planning
-    rows, notes = robustness_rows(problem, qdots, tuple(args.methods or DEFAULT_METHODS), args.models)
-    if not rows:
-        raise CLIError(f"no planner to evaluate: {'; '.join(notes)}")
-    out = Path(args.out or "out/evaluate/trials")
-    plans = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
-                      chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    problem = _problem(args)
+    rows, notes, out, plans = _planned(args, problem, "out/evaluate/trials")
     k = args.trials or 10
     spread = TrialSpread()
     summary = run_trials(problem, {r.key: plans[r.key] for r in rows}, k, args.seed, spread, progress=not args.quiet)
