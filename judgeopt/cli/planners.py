@@ -298,9 +298,8 @@ def _replan_rows(r: Any) -> str:
     lines = [f"receding: {r.message}; each re-plan's time, predicted success and Ipopt status:"]
     for x in r.info["replan_log"]:
         p = "-" if x["predicted"] is None else f"{x['predicted']:.3f}"
-        est = "".join(f", {k} = {v:g}" for k, v in x["estimate"].items())
         lines.append(f"  t = {x['t']:.2f} s (from {x['k']} measured samples): p {p}, {1000 * x['seconds']:.0f} ms, "
-                     f"{x['iterations']} it, {x['status']}{'' if x['kept'] else ' (dropped)'}{est}")
+                     f"{x['iterations']} it, {x['status']}{'' if x['kept'] or x['status'] == 'plan kept' else ' (dropped)'}")
     return "\n".join(lines)
 
 

@@ -70,8 +70,6 @@ def half_window(noise: float, h: float, n: int, target: float = VELOCITY_NOISE,
 
 def smooth(t: np.ndarray, y: np.ndarray, target: float = VELOCITY_NOISE) -> Smoothed:
     """Savitzky-Golay (quadratic) fit of a position stream, its window chosen from its noise."""
-    from scipy.signal import savgol_filter  # deferred: scipy takes a second to import, and the CLI imports this
-
     tu, yu, h = uniform(t, y)
     sigma = noise_level(yu)
     if len(yu) < 3:

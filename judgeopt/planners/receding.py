@@ -8,15 +8,15 @@ re-plan). The horizon shrinks rather than recedes: a scoop has a fixed duration 
 state, so each re-plan covers the time left, warm-started from the previous plan on the same
 clock. A re-plan that does not finish as "solved" is dropped and the previous plan kept.
 
-With an estimator (`Task.estimate`), the environment the judge reads is re-estimated from the
-measured motion before each re-plan, starting from what the user said.
+The environment the judge reads stays what the user said: the scoop's measured channels carry too
+little of it to re-estimate on the way (docs/physics.md, scripts/estimability.py).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass, field
-from typing import Any, Callable, Mapping
+from dataclasses import asdict, dataclass
+from typing import Any, Mapping
 
 import numpy as np
 
@@ -68,7 +68,6 @@ class Replan:
     seconds: float
     iterations: int
     kept: bool  # False: the previous plan went on
-    estimate: dict[str, float] = field(default_factory=dict)
     remainder: list | None = None  # the re-planned samples k..N (task's channel order), to plot
 
 
@@ -82,14 +81,13 @@ class ClosedLoopResult:
     response: np.ndarray  # (N + 1, channels) measured
     outcome: Any  # the task's Outcome
     env_told: dict[str, float]
-    env_final: dict[str, float]
 
     def summary(self) -> dict[str, Any]:
         s = [r.seconds for r in self.replans]
         return {"replans": len(self.replans), "kept": sum(r.kept for r in self.replans),
                 "replan_p95_ms": float(np.percentile(s, 95) * 1e3) if s else None,
                 "replan_max_ms": float(max(s) * 1e3) if s else None, "success": bool(self.outcome.success),
-                "env_told": self.env_told, "env_final": self.env_final}
+                "env_told": self.env_told}
 
     def to_json(self) -> dict[str, Any]:
         return {**self.summary(), "replan_log": [asdict(r) for r in self.replans],
@@ -102,9 +100,8 @@ class RecedingPlanner:
 
     method = "receding"
 
-    def __init__(self, direct: DirectPlanner, config: RecedingConfig | None = None,
-                 estimator: Callable[[np.ndarray, Mapping[str, float], float], dict[str, float]] | None = None):
-        self.direct, self.config, self.estimator = direct, config or RecedingConfig.of(direct.problem), estimator
+    def __init__(self, direct: DirectPlanner, config: RecedingConfig | None = None):
+        self.direct, self.config = direct, config or RecedingConfig.of(direct.problem)
         pr = direct.problem
         self.every = self.config.steps(pr.dt, pr.steps)
 
@@ -119,7 +116,6 @@ class RecedingPlanner:
         plan = first.plan
         run = simulator.execute(plan, world)
         told = dict(pr.env_dict(dict(env)))
-        belief = dict(told)
         replans: list[Replan] = []
         last_k = n - int(round(self.config.last / dt))
         k = self.every
@@ -127,24 +123,21 @@ class RecedingPlanner:
             run.advance(plan, k - 1)  # samples 0..k-1 measured; the step starting at k is the new plan's
             measured = run.measured()
             t0 = time.perf_counter()
-            if self.estimator is not None:
-                belief = {**belief, **self.estimator(measured, told, dt)}
             guess = plan.values.copy()
             guess[:k] = measured
             if self.config.trigger == "judge":
-                p_now = self.direct.probability(guess, belief)
+                p_now = self.direct.probability(guess, told)
                 if p_now >= pr.p_target:  # what was measured and the rest of the plan still convince the judge
                     replans.append(Replan(k * dt, k, "plan kept", p_now, time.perf_counter() - t0, 0, False))
                     k += self.every
                     continue
-            r = self.direct.with_prefix(measured).solve(belief, guess=Plan(dt, guess, plan.channels))
+            r = self.direct.with_prefix(measured).solve(told, guess=Plan(dt, guess, plan.channels))
             seconds = time.perf_counter() - t0
             kept = r.status == "solved" and r.plan is not None
             replans.append(Replan(k * dt, k, r.status, r.predicted_success, seconds, r.iterations, kept,
-                                  {kk: belief[kk] for kk in belief if belief[kk] != told.get(kk)},
                                   None if r.plan is None else r.plan.values[k:].tolist()))
             if kept:  # the commands already carried out stay; the rest is the new plan's
                 plan = Plan(dt, np.vstack([plan.values[:k], r.plan.values[k:]]), plan.channels)
             k += self.every
         outcome = run.outcome()
-        return ClosedLoopResult(first, replans, plan, np.asarray(outcome.response), outcome, told, belief)
+        return ClosedLoopResult(first, replans, plan, np.asarray(outcome.response), outcome, told)

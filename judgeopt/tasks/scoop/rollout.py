@@ -239,7 +239,7 @@ class Execution:
     def finish(self) -> RolloutResult:
         """The rest of the current plan, then the lift and the success test."""
         self.advance(self.plan, self.plan.horizon)
-        sim, cfg, ctl, sc = self.sim, self.sim.rollout_config, self.sim.controller, self.sim.scene
+        cfg, ctl, sc = self.sim.rollout_config, self.sim.controller, self.sim.scene
         plan = self.plan
         obj_after_motion, _ = sc.object_pose()
         # lift: pure position control, rise and tilt the blade back
