@@ -221,6 +221,11 @@ def _csv_demo(path: Path, spec: ImportSpec, key: str, items: list[tuple[str, lis
                    {c: values[c] for c in spec.env_names if c in values}, label, where, shown, times=times)
 
 
+def _stream(p: Path, streams: Sequence[str]) -> str | None:
+    """Which of `streams` a CSV file NAME_<stream>.csv holds, or None."""
+    return next((s for s in streams if p.suffix.lower() == ".csv" and p.stem.endswith(f"_{s}")), None)
+
+
 def _merged(paths: Sequence[Path], spec: ImportSpec) -> tuple[list[tuple[Path, tuple | None]], list[str]]:
     """With --streams A,B: the files NAME_A.csv, NAME_B.csv, ... of one recording as one table
     (their columns side by side, each file's rows blank in the others' columns), under the path
@@ -228,7 +233,7 @@ def _merged(paths: Sequence[Path], spec: ImportSpec) -> tuple[list[tuple[Path, t
     out: list[tuple[Path, tuple | None]] = []
     groups: dict[Path, dict[str, Path]] = {}
     for p in paths:
-        stream = next((s for s in spec.streams if p.suffix.lower() == ".csv" and p.stem.endswith(f"_{s}")), None)
+        stream = _stream(p, spec.streams)
         if stream is None:
             out.append((p, None))
         else:
@@ -566,7 +571,7 @@ def import_demos(paths: Sequence[str | Path], spec: ImportSpec) -> tuple[Dataset
         good += ok
     if spec.labels is not None:  # a row for a recording not given: a typo, or a file missing from the folder
         given = {c.label_key for _, c in good} | {n for p in map(Path, paths) for n in (
-            p.name, p.stem, *(p.stem[:-len(s) - 1] for s in spec.streams if p.stem.endswith(f"_{s}")))}
+            p.name, p.stem, *(p.stem[:-len(s) - 1] for s in [_stream(p, spec.streams)] if s))}
         absent = [k for k in spec.labels.labels if k not in given and Path(k).name not in given
                   and Path(k).stem not in given]
         if absent:

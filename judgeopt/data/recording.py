@@ -14,7 +14,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
-from judgeopt.data.signals import MOTION_STEP, Smoothed, motion_span, smooth
+from judgeopt.data.signals import Smoothed, motion_span, motion_step, smooth
 from judgeopt.tasks import DEFAULT_TASK, get_task
 from judgeopt.trajectory import CHANNELS, DEFAULT_DT, DEFAULT_HORIZON, Channel
 
@@ -235,7 +235,7 @@ def check(raw: RawDemo, spec: ImportSpec) -> Checked:
     elif spec.align == "onset":
         if motion is None:
             raise ImportError_(f"{raw.origin}: {raw.name}: no motion onset for --align onset: the position never "
-                               f"leaves its first value by more than {max(MOTION_STEP, 5 * first.noise) * 1e3:.3g} mm")
+                               f"leaves its rest by more than {motion_step(first) * 1e3:.3g} mm")
         lo = max(lo, motion[0] - spec.lead)
     lo, hi, scale = _fitted(raw, spec, lo, hi, motion)
     info.update(kept=hi - lo, time_scale=scale)

@@ -93,19 +93,28 @@ def _slope_noise(sigma: float, m: int, h: float) -> float:
     return sigma / (h * np.sqrt(m * (m + 1) * (2 * m + 1) / 3.0))
 
 
+def _detection_window(s: Smoothed) -> tuple[int, float]:
+    """Half-width (samples) and period of the longest fit, the one motion is read from."""
+    h = float(s.t[1] - s.t[0]) if len(s.t) > 1 else 1.0
+    return max(1, min(int(MAX_WINDOW / (2 * h)), (len(s.raw) - 1) // 2)), h
+
+
+def motion_step(s: Smoothed) -> float:
+    """How far from rest the position must be to count as moving: MOTION_STEP, or 5 noise levels
+    of the longest fit."""
+    m, _ = _detection_window(s)
+    return max(MOTION_STEP, 5 * s.noise / np.sqrt(m + 0.5))
+
+
 def motion_span(s: Smoothed) -> tuple[float, float] | None:
     """(onset, end) of the motion in s, or None when the tool never leaves rest. Read from a fit
     over the longest window (MAX_WINDOW: a human's slow start and slow last correction stand out
     from its lower noise): the first and last samples farther than MOTION_STEP (or 5 noise
     levels of that fit) from the rest at either end, each widened to where the speed drops to
     REST_SPEED (or 3 of its velocity-noise levels)."""
-    h = float(s.t[1] - s.t[0]) if len(s.t) > 1 else 1.0
-    m = max(1, min(int(MAX_WINDOW / (2 * h)), (len(s.raw) - 1) // 2))
-    if len(s.raw) < 3:
-        y, v = s.y, s.v
-    else:
-        y, v = _fit(s.raw, m, h)
-    step = max(MOTION_STEP, 5 * s.noise / np.sqrt(m + 0.5))
+    m, h = _detection_window(s)
+    y, v = (s.y, s.v) if len(s.raw) < 3 else _fit(s.raw, m, h)
+    step = motion_step(s)
     rest = max(REST_SPEED, 3 * _slope_noise(s.noise, m, h))
     edge = max(1, min(m, len(y) // 4))  # the rest at either end: the fit's edges are its least certain samples
     moving_from_start = np.abs(y - np.median(y[:edge])) > step
