@@ -41,7 +41,7 @@ def work(problem_file: str, qdot_max: float, envs: list[dict[str, float]], world
          trigger: str) -> list[dict]:
     from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
-    from judgeopt.planners.receding import RecedingConfig, RecedingPlanner
+    from judgeopt.planners.receding import PLAN_KEPT, RecedingConfig, RecedingPlanner
     from judgeopt.planners.solve import Planners
     from judgeopt.tasks import get_task
 
@@ -62,8 +62,8 @@ def work(problem_file: str, qdot_max: float, envs: list[dict[str, float]], world
             loop = receding.execute(sim, first, env, world)
             rows.append({"qdot_max": qdot_max, "world": name, "env": i, "open_loop": open_loop,
                          "receding": bool(loop.outcome.success),
-                         "replan_s": [r.seconds for r in loop.replans if r.status != "plan kept"],
-                         "dropped": sum(not r.kept and r.status != "plan kept" for r in loop.replans),
+                         "replan_s": [r.seconds for r in loop.replans if r.status != PLAN_KEPT],
+                         "dropped": sum(not r.kept and r.status != PLAN_KEPT for r in loop.replans),
                          "seconds": time.perf_counter() - t0})
     sim.close()
     return rows

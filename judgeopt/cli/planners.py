@@ -295,11 +295,14 @@ def _assignments(items: list[str] | None) -> dict[str, float]:
 
 def _replan_rows(r: Any) -> str:
     """The receding planner's log: one line per re-plan."""
+    from judgeopt.planners.receding import PLAN_KEPT
+
     lines = [f"receding: {r.message}; each re-plan's time, predicted success and Ipopt status:"]
     for x in r.info["replan_log"]:
         p = "-" if x["predicted"] is None else f"{x['predicted']:.3f}"
+        dropped = "" if x["kept"] or x["status"] == PLAN_KEPT else " (dropped)"
         lines.append(f"  t = {x['t']:.2f} s (from {x['k']} measured samples): p {p}, {1000 * x['seconds']:.0f} ms, "
-                     f"{x['iterations']} it, {x['status']}{'' if x['kept'] or x['status'] == 'plan kept' else ' (dropped)'}")
+                     f"{x['iterations']} it, {x['status']}{dropped}")
     return "\n".join(lines)
 
 

@@ -15,7 +15,7 @@ little of it to re-estimate on the way (docs/physics.md, scripts/estimability.py
 from __future__ import annotations
 
 import time
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
@@ -58,6 +58,10 @@ class RecedingConfig:
         return int(round(m))
 
 
+#: a check at which the judge, reading what was measured and the plan's rest, was convinced: nothing re-solved
+PLAN_KEPT = "plan kept"
+
+
 @dataclass
 class Replan:
     """One re-plan: when, from how many measured samples, what it believed and what it cost."""
@@ -89,11 +93,6 @@ class ClosedLoopResult:
                 "replan_p95_ms": float(np.percentile(s, 95) * 1e3) if s else None,
                 "replan_max_ms": float(max(s) * 1e3) if s else None, "success": bool(self.outcome.success),
                 "env_told": self.env_told}
-
-    def to_json(self) -> dict[str, Any]:
-        return {**self.summary(), "replan_log": [asdict(r) for r in self.replans],
-                "first_plan": self.first.plan.as_array().tolist(), "executed": self.executed.as_array().tolist(),
-                "response": self.response.tolist()}
 
 
 class RecedingPlanner:
@@ -129,7 +128,7 @@ class RecedingPlanner:
             if self.config.trigger == "judge":
                 p_now = self.direct.probability(guess, told)
                 if p_now >= pr.p_target:  # what was measured and the rest of the plan still convince the judge
-                    replans.append(Replan(k * dt, k, "plan kept", p_now, time.perf_counter() - t0, 0, False))
+                    replans.append(Replan(k * dt, k, PLAN_KEPT, p_now, time.perf_counter() - t0, 0, False))
                     k += self.every
                     continue
             r = self.direct.with_prefix(measured).solve(told, guess=Plan(dt, guess, plan.channels))

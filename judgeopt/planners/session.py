@@ -123,14 +123,14 @@ def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | 
 def closed_loop(planners: Any, sim: Any, results: list, env: dict, world: dict) -> Any:
     """The direct plan executed in `world` with re-planning from the measured response, as a
     result row (its p: the last re-plan's; its outcome: the closed loop's)."""
-    from judgeopt.planners.receding import RecedingConfig, RecedingPlanner
+    from judgeopt.planners.receding import PLAN_KEPT, RecedingConfig, RecedingPlanner
     from judgeopt.planners.result import assess
 
     first = next(r for r in results if r.method == "direct")
     pr = planners.problem
     loop = RecedingPlanner(planners.direct, RecedingConfig.of(pr)).execute(sim, first, env, world)
     kept = [r for r in loop.replans if r.kept]
-    solves = [r for r in loop.replans if r.status != "plan kept"]
+    solves = [r for r in loop.replans if r.status != PLAN_KEPT]
     p = kept[-1].predicted if kept else first.predicted_success
     out = dataclasses.replace(
         first, method="receding", plan=loop.executed, predicted_success=p, status="executed",
