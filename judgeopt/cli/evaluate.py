@@ -185,7 +185,7 @@ def cmd_robustness(args: argparse.Namespace) -> int:
     cases = robustness_cases(task, args.perturb)  # an unknown name fails here, before any planning
     rows, notes, out, plans = _planned(args, problem, "out/evaluate/robustness")
     results = run_replays(problem, rows, plans, cases, args.n, args.seed, out, chunk=args.chunk, n_jobs=args.jobs,
-                          scheduler=args.scheduler, progress=not args.quiet)
+                          scheduler=args.scheduler, progress=not args.quiet, models_dir=args.models)
     summary = summarise_robustness(task, rows, cases, results)
     title = (f"Plans for the nominal world replayed in perturbed ones: {problem.name} (task {task.name}), "
              f"{args.n} environments ({_env_text(problem)}), seed {args.seed}, judge {problem.judge}")

@@ -160,10 +160,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
     problem = problem_from_args(args)
     env = problem.nominal_env()
     told = session.simulated_world(problem, _assignments(args.simulate_env))  # checked before any solver runs
-    receding = args.method == "receding"
-    if receding and not args.simulate:
-        raise CLIError("--method receding re-plans while the plan is executed in simulation; drop --no-simulate")
-    if receding:
+    from judgeopt.planners.base import REGISTRY
+
+    spec = REGISTRY.get(args.method)
+    if spec is not None and spec.closed_loop and not args.simulate:
+        raise CLIError(f"--method {args.method} plans while the plan is executed in simulation; drop --no-simulate")
+    if args.method == "receding":
         from judgeopt.planners.receding import RecedingConfig
 
         RecedingConfig.of(problem).steps(problem.dt, problem.steps)
@@ -171,10 +173,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         problem.check_feasible(env)
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
-    methods, fallback = session.methods_for(problem, args.method, args.generator, args.models)
+    methods, fallback = session.methods_for(problem, args.method, args.generator, args.models, args.simulate)
     several = len(methods) > 1
     targets = [_with_method(path, m, several) for path in (args.out, args.save_json, args.export) if path
-               for m in (*methods, *(("receding",) if receding else ()))]
+               for m in methods]
     if args.export:  # its format from the suffix, checked before any solver runs
         from judgeopt.cli.export import export_format
 
@@ -196,10 +198,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
         sim = get_task(problem.task).simulator()
     report = session.solve(planners, simulator=sim, world=told, warm_start=args.warm_start,
-                           ranges=ranges_given(args, problem), range_case=args.range_case, receding=receding,
-                           suggest=args.suggest)
+                           ranges=ranges_given(args, problem), range_case=args.range_case, suggest=args.suggest)
     results, suggestions, unlikely = report.results, report.suggestions, report.unlikely
-    several = several or receding
     files = []
     for r in results:
         if r.plan is not None and args.out:
@@ -435,7 +435,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
                    "baseline (cross-entropy method over spline commands, same judge); any other registered planner "
                    "(judgeopt.planners.base.register); all: every one; receding: "
-                   "both, then the direct plan executed in simulation and, every [solver] replan_period (0.1 s), "
+                   "the direct plan executed in simulation and, every [solver] replan_period (0.1 s), "
                    "re-solved from what the arm measured (when the judge asks for it: [solver] replan_trigger)")
     s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",
                    help="simulate in a world that differs from the one planned for (e.g. y_obj=0.22: the object 3 cm "

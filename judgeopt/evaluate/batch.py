@@ -64,7 +64,8 @@ def plan_chunk(problem: Problem, methods: tuple[str, ...], models_dir: str, envs
     rows = []
     for i, e in enumerate(envs):
         for r in loaded.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim):
-            rows.append({**r.to_json(), "env_index": first + i})
+            if r.method in methods:  # not the planners a closed-loop one is built on
+                rows.append({**r.to_json(), "env_index": first + i})
     return rows
 
 

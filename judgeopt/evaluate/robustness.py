@@ -1,5 +1,6 @@
 """`judgeopt evaluate robustness`: plans made for the nominal world, replayed unchanged in worlds
-that differ from it, one perturbation at a time.
+that differ from it, one perturbation at a time (a planner that plans while executing, such as the
+receding planner, is run again in each world: it re-plans there from what it measures).
 
 Each planner plans every seeded environment once per velocity limit, for the world it is told
 (the nominal one): that is `evaluate planners`' run (judgeopt.evaluate.tables.run_table, the
@@ -26,6 +27,7 @@ import numpy as np
 from judgeopt.evaluate.report import wilson
 from judgeopt.files import atomic_write
 from judgeopt.parallel import run_chunks, worker_cache
+from judgeopt.planners.base import REGISTRY
 from judgeopt.planners.problem import Problem
 from judgeopt.tasks import Task, get_task
 from judgeopt.tasks.tables import Row
@@ -102,10 +104,12 @@ def plan_of(task: Task, row: dict[str, Any], dt: float):
     return task.plan(values, dt)
 
 
-def replay_chunk(task_name: str, case: Case, plans: list[dict], seed: int, dt: float) -> list[dict]:
+def replay_chunk(task_name: str, case: Case, plans: list[dict], seed: int, dt: float,
+                 problem: Problem | None = None, models_dir: str = "models") -> list[dict]:
     """Replay each planned row (a PlanResult.to_json with env_index) unchanged in `case`'s world:
     one row each with the success, the world's environment and the outcome's numeric details.
-    Sensor noise is seeded by (seed, environment)."""
+    Sensor noise is seeded by (seed, environment). A planner that plans while executing (its
+    rows need `problem`, the row's) is run again in that world instead: it re-plans there."""
     task = get_task(task_name)
     sim = worker_cache(f"robustness:{task_name}", task.simulator)
     out = []
@@ -118,14 +122,24 @@ def replay_chunk(task_name: str, case: Case, plans: list[dict], seed: int, dt: f
                 out.append({**row, "success": None})
                 continue
             sim.perturb(case.world, seed=[seed, r["env_index"]])
-            try:
-                outcome = sim.simulate(plan_of(task, r, dt), env)
-            except PlanError as exc:
-                out.append({**row, "success": False, "refused": str(exc)})
-                continue
-            details = {k: (float(v) if not isinstance(v, bool) else v) for k, v in outcome.details.items()
+            if REGISTRY.get(r["method"]) is not None and REGISTRY[r["method"]].closed_loop:
+                from judgeopt.evaluate.batch import planners
+
+                assert problem is not None, "a closed-loop row is run again: replay_chunk needs its problem"
+                done = next(x for x in planners(problem, (r["method"],), models_dir=models_dir).solve(env, simulator=sim)
+                            if x.method == r["method"])
+                success, details = done.simulated_success, {k[4:]: v for k, v in done.info.items()
+                                                            if k.startswith("sim_") and k != "sim_refused"}
+            else:
+                try:
+                    outcome = sim.simulate(plan_of(task, r, dt), env)
+                except PlanError as exc:
+                    out.append({**row, "success": False, "refused": str(exc)})
+                    continue
+                success, details = outcome.success, outcome.details
+            details = {k: (float(v) if not isinstance(v, bool) else v) for k, v in details.items()
                        if isinstance(v, (bool, int, float))}
-            out.append({**row, "success": bool(outcome.success), "details": details})
+            out.append({**row, "success": bool(success), "details": details})
     finally:
         sim.perturb({})
     return out
@@ -144,7 +158,7 @@ def _nominal_rows(plans: list[dict]) -> list[dict]:
 
 def run_replays(problem: Problem, rows: list[Row], plans: dict[str, list[dict]], cases: list[Case], n: int,
                 seed: int, out: Path, chunk: int = 10, n_jobs: int = -1, scheduler: str | None = None,
-                progress: bool = True) -> dict[tuple[str, str], list[dict]]:
+                progress: bool = True, models_dir: str = "models") -> dict[tuple[str, str], list[dict]]:
     """Every row's plans replayed in every case's world: {(row key, case slug): rows}, resumable
     from OUT/replays/ (a file per chunk, named by the plans it replays)."""
     folder = Path(out) / "replays"
@@ -171,8 +185,9 @@ def run_replays(problem: Problem, rows: list[Row], plans: dict[str, list[dict]],
     def save(path: Path, result: list[dict]) -> None:
         atomic_write(path, json.dumps(result).encode())
 
-    fresh = run_chunks([(path, replay_chunk, (problem.task, case, part, seed, problem.dt))
-                        for path, _, case, part in todo], save, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
+    overrides = {row.key: problem.with_overrides(**dict(row.overrides)) for row in rows}
+    fresh = run_chunks([(path, replay_chunk, (problem.task, case, part, seed, problem.dt, overrides[key[0]], models_dir))
+                        for path, key, case, part in todo], save, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
                        desc=f"replay ({len(done)} chunks already done)")
     for path, (key, rs) in done.items():
         results[key] += rs
@@ -261,7 +276,8 @@ def markdown_robustness(task: Task, summary: list[dict], title: str) -> str:
             lines.append(f"| {w} | " + " | ".join(cells) + " |")
     clipped = sorted({s["world"] for s in summary if s["true_env_clipped"]})
     lines += ["", "Each planner plans once per environment for the nominal world; the same plan is replayed unchanged "
-              "in each world. A misestimated environment variable: the plan was made for the told value, the world "
+              "in each world (a closed-loop planner, e.g. receding, executes again there, re-planning from what "
+              "it measures). A misestimated environment variable: the plan was made for the told value, the world "
               "has the perturbed one."]
     if clipped:
         lines.append(f"In {', '.join(clipped)} the true value was clipped to the scene's physical range for some "

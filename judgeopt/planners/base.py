@@ -6,7 +6,9 @@ name (the CLI's `--method` choices, the evaluation's rows and calibration settin
 what it needs, and how it is built from a problem and its judge. The three built-in planners
 are built by `judgeopt.planners.solve.Planners.load`, which shares one generator between them and
 lets the generator's plan warm-start the direct solve; a planner added with `register` is built
-by its own `build` and runs after them.
+by its own `build` (given the planners it `uses`) and runs after them. A planner that needs the
+simulator (a `ClosedLoopPlanner`, e.g. the receding planner) plans while its plan is executed:
+it runs after the others are replayed, from their results.
 
 Light to import: the command line reads the names at start-up.
 """
@@ -22,8 +24,8 @@ from judgeopt.planners.problem import ProblemError
 if TYPE_CHECKING:
     from judgeopt.planners.result import PlanResult
 
-#: `--method` values that name several planners or a mode, not one planner
-RESERVED = ("both", "all", "receding")
+#: `--method` values that name several planners, not one
+RESERVED = ("both", "all")
 
 
 class Planner(ABC):
@@ -40,16 +42,37 @@ class Planner(ABC):
         raise ProblemError(f"planner {self.method!r} cannot change its limits without being rebuilt")
 
 
+class ClosedLoopPlanner(Planner):
+    """A planner that plans during execution: `run` executes in the simulator, from the open-loop
+    planners' results for the same environment, and returns the executed plan as a result."""
+
+    def solve(self, env: dict[str, float], guess: Any = None) -> "PlanResult":
+        raise ProblemError(f"planner {self.method!r} plans while its plan is executed: run it with a simulator "
+                           f"(judgeopt solve --method {self.method}, without --no-simulate)")
+
+    @abstractmethod
+    def run(self, simulator: Any, results: list["PlanResult"], env: dict[str, float],
+            world: dict[str, float]) -> "PlanResult":
+        """Execute in `world` (the simulated one, which may differ from `env`, what was said)."""
+
+
 @dataclass(frozen=True)
 class PlannerSpec:
     """A planner's registry entry."""
 
     name: str
     description: str
-    #: what it is built from: "judge", "generator"
+    #: what it is built from or runs in: "judge", "generator", "simulator" (a ClosedLoopPlanner)
     needs: tuple[str, ...] = ("judge",)
-    #: (problem, judge model) -> Planner; None for the built-ins, which `Planners.load` builds
-    build: Callable[[Any, Any], Planner] | None = None
+    #: (problem, judge model, **the planners it uses by name) -> Planner; None for the built-ins,
+    #: which `Planners.load` builds
+    build: Callable[..., Planner] | None = None
+    #: planners it is built on, loaded with it (`--method receding` also runs "direct")
+    uses: tuple[str, ...] = ()
+
+    @property
+    def closed_loop(self) -> bool:
+        return "simulator" in self.needs
 
 
 REGISTRY: dict[str, PlannerSpec] = {}
@@ -68,6 +91,11 @@ def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
 
 
+def with_uses(methods: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """`methods` with the planners each is built on, those first (e.g. receding -> direct, receding)."""
+    return tuple(dict.fromkeys(u for m in methods for u in (*(REGISTRY[m].uses if m in REGISTRY else ()), m)))
+
+
 def planner_names() -> tuple[str, ...]:
     """Every registered planner, built-ins first."""
     return tuple(REGISTRY)
@@ -78,3 +106,13 @@ register(PlannerSpec("amortized", "the paper's generator (eqs. 2-4): a plan in a
 register(PlannerSpec("direct", "Ipopt over the judge's CasADi function, every limit and the terminal state hard, "
                      "warm-started from the generator's plan"))
 register(PlannerSpec("cem", "the sampling baseline: cross-entropy search over spline commands, the same judge"))
+
+
+def _receding(problem: Any, judge: Any, direct: Any) -> Planner:
+    from judgeopt.planners.receding import RecedingPlanner  # imports CasADi: not at start-up
+
+    return RecedingPlanner(direct)
+
+
+register(PlannerSpec("receding", "the direct solve re-run during execution, every [solver] replan_period, from what "
+                     "the arm measured", ("judge", "simulator"), _receding, uses=("direct",)))

@@ -14,15 +14,17 @@ little of it to re-estimate on the way (docs/physics.md, scripts/estimability.py
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
+from judgeopt.planners.base import ClosedLoopPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.problem import ProblemError
-from judgeopt.planners.result import PlanResult
+from judgeopt.planners.result import PlanResult, assess
 from judgeopt.trajectory import Plan
 
 
@@ -95,7 +97,7 @@ class ClosedLoopResult:
                 "env_told": self.env_told}
 
 
-class RecedingPlanner:
+class RecedingPlanner(ClosedLoopPlanner):
     """The direct solve, re-run from the measured state every `period` during execution."""
 
     method = "receding"
@@ -104,6 +106,31 @@ class RecedingPlanner:
         self.direct, self.config = direct, config or RecedingConfig.of(direct.problem)
         pr = direct.problem
         self.every = self.config.steps(pr.dt, pr.steps)
+
+    def with_limits(self, problem: Any) -> "RecedingPlanner":
+        return RecedingPlanner(self.direct.with_limits(problem), self.config)
+
+    def run(self, simulator: Any, results: list[PlanResult], env: dict[str, float],
+            world: dict[str, float]) -> PlanResult:
+        """The direct plan among `results` executed in `world` with re-planning, as a result row
+        (its p: the last kept re-plan's; its outcome: the closed loop's)."""
+        first = next((r for r in results if r.method == "direct"), None)
+        if first is None:
+            raise ProblemError("the receding planner executes the direct plan: run it with the direct planner")
+        loop = self.execute(simulator, first, env, world)
+        kept = [r for r in loop.replans if r.kept]
+        solves = [r for r in loop.replans if r.status != PLAN_KEPT]
+        p = kept[-1].predicted if kept else first.predicted_success
+        out = dataclasses.replace(
+            first, method=self.method, plan=loop.executed, predicted_success=p, status="executed",
+            solve_time_s=sum(r.seconds for r in loop.replans), iterations=sum(r.iterations for r in loop.replans),
+            simulated_success=bool(loop.outcome.success), response=loop.response,
+            info={"warm_start": first.info.get("warm_start"), "closed_loop": loop.summary(),
+                  "replan_log": [dataclasses.asdict(r) for r in loop.replans],
+                  **{f"sim_{k}": v for k, v in loop.outcome.details.items() if isinstance(v, (bool, int, float))}},
+            message=f"{len(loop.replans)} checks every {self.config.period:g} s (trigger {self.config.trigger}), "
+                    f"{len(solves)} re-solved, {len(kept)} re-plans kept")
+        return assess(out)
 
     def execute(self, simulator: Any, first: PlanResult, env: Mapping[str, float],
                 world: Mapping[str, float]) -> ClosedLoopResult:

@@ -1,31 +1,34 @@
 """One planning request from start to verdict, as a library call: which planners run (and the
-fallback when no generator covers the limits), the world they are simulated in, the closed-loop
-execution of the receding planner, and what would make an unlikely plan likely. `judgeopt solve`
+fallback when no generator covers the limits), the world they are simulated in (where planners that
+plan while executing run), and what would make an unlikely plan likely. `judgeopt solve`
 only formats the `SolveReport` and writes its files.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
-from judgeopt.planners.base import planner_names
+from judgeopt.planners.base import REGISTRY, planner_names, with_uses
 from judgeopt.planners.problem import Problem, ProblemError
 
 #: `method` values that name several planners
-GROUPS = {"both": ("amortized", "direct"), "receding": ("amortized", "direct")}
+GROUPS = {"both": ("amortized", "direct")}
 #: said when no generator covers the limits and "both" was asked for
 NO_GENERATOR = ("no generator covers these limits: the direct solve runs alone, from its min-jerk guess (train one "
                 "with `judgeopt train-generator`)")
 
 
-def methods_for(problem: Problem, method: str, generator: str | None = None,
-                models_dir: str = "models") -> tuple[tuple[str, ...], str | None]:
-    """The planners `method` names ("both", "all", "receding" or one planner), and a note when
-    the generator's part falls away because none covers the limits."""
-    methods = {**GROUPS, "all": planner_names()}.get(method, (method,))
+def methods_for(problem: Problem, method: str, generator: str | None = None, models_dir: str = "models",
+                simulate: bool = True) -> tuple[tuple[str, ...], str | None]:
+    """The planners `method` names ("both", "all" or one planner, with the planners it is built
+    on), and a note when the generator's part falls away because none covers the limits.
+    Without `simulate`, "all" leaves out the planners that plan while executing."""
+    if method == "all":
+        methods = tuple(m for m in planner_names() if simulate or not REGISTRY[m].closed_loop)
+    else:
+        methods = GROUPS.get(method) or with_uses((method,))
     if method in GROUPS and not generator:
         from judgeopt.planners.solve import choose_models
 
@@ -86,17 +89,15 @@ class SolveReport:
 
 def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | None = None,
           warm_start: str = "generator", ranges: Mapping[str, tuple[float, float]] | None = None,
-          range_case: str = "worst", receding: bool = False, suggest: bool = True) -> SolveReport:
+          range_case: str = "worst", suggest: bool = True) -> SolveReport:
     """Plan for the problem's nominal environment with `planners` (`Planners.load`).
-    `simulator`: replay each plan there, in the problem's world changed by `world`; `ranges`:
-    the direct solve plans over a grid of these (env_grid), in their `range_case`; `receding`:
-    then execute the direct plan with re-planning (needs the simulator); `suggest`: where every
-    plan is unlikely, search for the limit changes that would make one likely."""
+    `simulator`: replay each plan there (and run the planners that plan while executing), in
+    the problem's world changed by `world`; `ranges`: the direct solve plans over a grid of these
+    (env_grid), in their `range_case`; `suggest`: where every plan is unlikely, search for the
+    limit changes that would make one likely."""
     problem = planners.problem
     env = problem.nominal_env()
     world = simulated_world(problem, world)
-    if receding and simulator is None:
-        raise ProblemError("the receding planner re-plans while its plan is executed in simulation: give a simulator")
     env_set = None
     if ranges and planners.direct is not None:
         from judgeopt.planners.solve import env_grid
@@ -107,8 +108,6 @@ def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | 
                               f"({where}); the others for its middle ({', '.join(f'{k} = {env[k]:g}' for k in ranges)})")
     results = planners.solve(env, simulator=simulator, warm_start=warm_start, env_set=env_set, case=range_case,
                              world=world)
-    if receding:
-        results.append(closed_loop(planners, simulator, results, env, {**problem.world_env(env), **world}))
     report = SolveReport(problem, env, planners, results,
                          {**{k: v for k, v in problem.world_env(env).items() if k not in env}, **world})
     if report.unlikely and suggest:
@@ -119,26 +118,3 @@ def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | 
         report.suggest_seconds = time.perf_counter() - t0
     return report
 
-
-def closed_loop(planners: Any, sim: Any, results: list, env: dict, world: dict) -> Any:
-    """The direct plan executed in `world` with re-planning from the measured response, as a
-    result row (its p: the last re-plan's; its outcome: the closed loop's)."""
-    from judgeopt.planners.receding import PLAN_KEPT, RecedingConfig, RecedingPlanner
-    from judgeopt.planners.result import assess
-
-    first = next(r for r in results if r.method == "direct")
-    pr = planners.problem
-    loop = RecedingPlanner(planners.direct, RecedingConfig.of(pr)).execute(sim, first, env, world)
-    kept = [r for r in loop.replans if r.kept]
-    solves = [r for r in loop.replans if r.status != PLAN_KEPT]
-    p = kept[-1].predicted if kept else first.predicted_success
-    out = dataclasses.replace(
-        first, method="receding", plan=loop.executed, predicted_success=p, status="executed",
-        solve_time_s=sum(r.seconds for r in loop.replans), iterations=sum(r.iterations for r in loop.replans),
-        simulated_success=bool(loop.outcome.success), response=loop.response,
-        info={"warm_start": first.info.get("warm_start"), "closed_loop": loop.summary(),
-              "replan_log": [dataclasses.asdict(r) for r in loop.replans],
-              **{f"sim_{k}": v for k, v in loop.outcome.details.items() if isinstance(v, (bool, int, float))}},
-        message=f"{len(loop.replans)} checks every {pr.replan_period:g} s (trigger {pr.replan_trigger}), "
-                f"{len(solves)} re-solved, {len(kept)} re-plans kept")
-    return assess(out)

@@ -18,7 +18,7 @@ import numpy as np
 
 from judgeopt.files import resolve
 from judgeopt.judge.model import Judge
-from judgeopt.planners.base import REGISTRY, Planner, planner_names
+from judgeopt.planners.base import REGISTRY, Planner, planner_names, with_uses
 from judgeopt.planners.cem import CEMPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.generator import AmortizedPlanner
@@ -130,6 +130,7 @@ class Planners:
         bad = [m for m in methods if m not in REGISTRY]
         if bad or not methods:
             raise ProblemError(f"unknown method(s) {bad}; choose from {list(planner_names())}")
+        methods = with_uses(methods)
         chosen = choose_models(problem, methods, judge, generator, models_dir)
         jmodel, jmeta = load_judge(chosen.judge)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
@@ -186,8 +187,8 @@ class Planners:
             out.direct = DirectPlanner(problem, jmodel, cj, members=members, trust=trust)
         if "cem" in methods:
             out.cem = CEMPlanner(problem, jmodel)
-        out.added = {m: REGISTRY[m].build(problem, jmodel) for m in methods if m not in METHODS}
         out.methods = tuple(m for m in planner_names() if m in methods)
+        out.added = out._build_added(problem)
         out._settings(chosen)
         return out
 
@@ -211,6 +212,17 @@ class Planners:
             self.calibration_file = load_calibration(path)
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
+
+    def _build_added(self, problem: Problem, built: dict[str, Planner] | None = None) -> dict[str, Planner]:
+        """The registered planners besides the built-ins (those in `built` kept), each given the
+        planners its entry `uses`."""
+        out = dict(built or {})
+        for m in self.methods:
+            spec = REGISTRY[m]
+            if m in METHODS or m in out:
+                continue
+            out[m] = spec.build(problem, self.judge, **{u: getattr(self, u) for u in spec.uses})
+        return dict(sorted(out.items(), key=lambda kv: self.methods.index(kv[0])))
 
     def _direct_for(self, samples: int, case: str) -> DirectPlanner:
         """The direct solve for `samples` environments at once (built once per size and case)."""
@@ -247,7 +259,8 @@ class Planners:
             out.direct = self.direct.with_limits(problem)
         if self.cem is not None:
             out.cem = CEMPlanner(problem, self.judge, self.cem.config)
-        out.added = {m: p.with_limits(problem) for m, p in self.added.items()}
+        out.added = {m: p.with_limits(problem) for m, p in self.added.items() if not REGISTRY[m].uses}
+        out.added = out._build_added(problem, out.added)
         out._settings(chosen)
         return out
 
@@ -261,8 +274,6 @@ class Planners:
         them at once, in their worst `case` or on average; the others plan for `env`."""
         if warm_start not in WARM_STARTS:
             raise ProblemError(f"warm start {warm_start!r}: choose one of {', '.join(WARM_STARTS)}")
-        from judgeopt.planners.calibration import inputs as calibration_inputs
-
         env = self.problem.env_dict(env)
         infeasible = [infeasible_result(m, self.problem, env) for m in self.methods]
         if infeasible[0] is not None:
@@ -281,15 +292,13 @@ class Planners:
                 results.append(self.direct.solve(env, guess=guess))
         if self.cem is not None:
             results.append(self.cem.solve(env))
-        results += [p.solve(env) for p in self.added.values()]
+        closed = {m: p for m, p in self.added.items() if REGISTRY[m].closed_loop}
+        if closed and simulator is None:
+            raise ProblemError(f"{', '.join(closed)} plans while its plan is executed in simulation: give a simulator "
+                               "(drop --no-simulate)")
+        results += [p.solve(env) for m, p in self.added.items() if m not in closed]
         for r in results:
-            limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
-            r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,
-                          setting_description=self.descriptions[r.method])
-            cal = self.calibrators.get(r.method)
-            if cal is not None and r.predicted_success is not None:
-                r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
-            assess(r)
+            self._annotate(r, env)
         if simulator is not None:
             # with the task's variables the planners do not read; `world`: where it differs from what was said
             world = {**self.problem.world_env(env), **(world or {})}
@@ -302,4 +311,18 @@ class Planners:
                         continue
                     r.simulated_success, r.response = bool(out.success), np.asarray(out.response, dtype=float)
                     r.info.update({f"sim_{k}": v for k, v in out.details.items() if isinstance(v, (bool, int, float))})
+            for p in closed.values():  # planning while executing, from the open-loop results
+                results.append(self._annotate(p.run(simulator, results, env, world), env))
         return results
+
+    def _annotate(self, r: PlanResult, env: dict[str, float]) -> PlanResult:
+        """The result's setting (what its outcomes depend on), limits and calibrated success."""
+        from judgeopt.planners.calibration import inputs as calibration_inputs
+
+        limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
+        r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,
+                      setting_description=self.descriptions[r.method])
+        cal = self.calibrators.get(r.method)
+        if cal is not None and r.predicted_success is not None:
+            r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
+        return assess(r)

@@ -82,7 +82,10 @@ def test_solve_receding_in_a_world_unlike_the_one_told(tmp_path, capsys):
     assert main(["solve", "--problem", "problems/paper_sim_slow.toml", "--method", "receding", "--simulate-env",
                  "y_obj=0.22", "--replan-trigger", "always", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    rec = next(r for r in out["results"] if r["method"] == "receding")
+    assert [r["method"] for r in out["results"]] == ["direct", "receding"]  # receding is built on the direct solve
+    rec = out["results"][1]
     assert rec["status"] == "executed" and rec["simulated_success"] is not None
+    assert main(["solve", "--method", "receding", "--no-simulate"]) == 2
+    assert "plans while the plan is executed in simulation; drop --no-simulate" in capsys.readouterr().err
     assert main(["solve", "--method", "receding", "--simulate-env", "y_obj=9"]) == 2
     assert "outside the scoop scene's physical range" in capsys.readouterr().err

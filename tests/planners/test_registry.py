@@ -9,7 +9,7 @@ import time
 import pytest
 
 from judgeopt.cli import main
-from judgeopt.planners.base import REGISTRY, Planner, PlannerSpec, register, unregister
+from judgeopt.planners.base import REGISTRY, Planner, PlannerSpec, register, unregister, with_uses
 from judgeopt.planners.cold_start import default_guess
 from judgeopt.planners.problem import ProblemError
 from judgeopt.planners.result import PlanResult, constraint_residuals
@@ -42,7 +42,9 @@ def straight():
 
 
 def test_the_built_ins_are_registered_and_names_are_checked():
-    assert list(REGISTRY)[:3] == ["amortized", "direct", "cem"]
+    assert list(REGISTRY)[:4] == ["amortized", "direct", "cem", "receding"]
+    assert REGISTRY["receding"].closed_loop and REGISTRY["receding"].uses == ("direct",)
+    assert with_uses(["receding", "cem"]) == ("direct", "receding", "cem")
     for bad in ("direct", "both", "receding", "two words"):
         with pytest.raises(ProblemError, match="taken or not a plain name"):
             register(PlannerSpec(bad, "x"))
