@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from judgeopt.files import resolve
+from judgeopt.files import PACKAGE, resolve
 from judgeopt.planners.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
@@ -500,17 +500,33 @@ def _base_path(path: Path, base: Any) -> Path:
     local = path.parent / base
     if local.exists():
         return local.resolve()
-    for name in (base, f"problems/{base}"):
-        found = resolve(name)
+    try:
+        return find_problem(base).resolve()
+    except ProblemError:
+        raise ProblemError(f"{path}: base = {base!r} not found next to the file ({local}) nor among the shipped "
+                           "problems (problems/paper_sim.toml, problems/scrape.toml, ...)") from None
+
+
+def find_problem(name: str | Path) -> Path:
+    """A problem file: the path as given if it exists, else a shipped one by name, with or without
+    `problems/` and `.toml` ("paper_sim", "problems/paper_sim.toml")."""
+    p = Path(name)
+    if p.exists():
+        return p
+    stem = p.as_posix().removeprefix("problems/")
+    for candidate in (p, Path(f"problems/{stem}"), Path(f"problems/{stem}.toml")):
+        found = resolve(candidate)
         if found.exists():
-            return found.resolve()
-    raise ProblemError(f"{path}: base = {base!r} not found next to the file ({local}) nor among the shipped problems "
-                       "(problems/paper_sim.toml, problems/scrape.toml, ...)")
+            return found
+    shipped = sorted(f.stem for f in (PACKAGE / "tasks").glob("*/problems/*.toml"))
+    raise ProblemFileError(f"problem {str(name)!r} not found: give a path to a TOML file or a shipped name "
+                           f"({', '.join(shipped)})")
 
 
 def load_problem(path: str | Path) -> Problem:
-    """Read and validate a problem file; every error is a ProblemFileError naming the file."""
-    p = Path(path)
+    """Read and validate a problem file (a path, or a shipped name: `find_problem`); every error is
+    a ProblemFileError naming the file."""
+    p = find_problem(path)
     try:
         flat = _read_toml(p.resolve())
         flat.setdefault("name", p.stem)

@@ -1,0 +1,78 @@
+"""The library in a few calls, re-exported by `import judgeopt`: a problem, its planners, a
+solve with its verdict and simulated outcome, the judge, and the task's simulator.
+
+    import judgeopt
+
+    problem = judgeopt.load_problem("paper_sim", qdot_max=0.4)
+    report = judgeopt.solve(problem)                 # both planners, each plan replayed in simulation
+    for r in report.results:
+        print(r.method, r.success_probability, r.simulated_success)
+
+Each call is a thin door onto the module that does the work (named in its docstring), so what is
+learnt here carries over to the deeper API.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Mapping, Sequence
+
+from judgeopt.planners.problem import Problem, find_problem
+from judgeopt.planners.problem import load_problem as _load_problem_file
+
+
+def load_problem(name: str | Path = "paper_sim", **overrides: Any) -> Problem:
+    """A problem file, given as a path or a shipped name ("paper_sim", "problems/scrape.toml"),
+    with fields and environment values overridden by name (judgeopt.planners.problem)."""
+    problem = _load_problem_file(find_problem(name))
+    return problem.with_overrides(**overrides) if overrides else problem
+
+
+def load_planners(problem: Problem | str = "paper_sim", methods: Sequence[str] = ("amortized", "direct"),
+                  judge: str | Path | None = None, generator: str | Path | None = None,
+                  models_dir: str | Path = "models") -> Any:
+    """The planners for `problem`, with its judge and (found or given) generator loaded once
+    (judgeopt.planners.solve.Planners; method names: judgeopt.planners.base.planner_names())."""
+    from judgeopt.planners.solve import Planners
+
+    problem = load_problem(problem) if not isinstance(problem, Problem) else problem
+    return Planners.load(problem, tuple(methods), judge=judge, generator=generator, models_dir=models_dir)
+
+
+def solve(problem: Any = "paper_sim", methods: Sequence[str] = ("amortized", "direct"), simulate: bool = True,
+          world: Mapping[str, float] | None = None, **options: Any) -> Any:
+    """Plan for the problem's environment and give the `SolveReport` (results, notes, verdict,
+    suggestions) that `judgeopt solve` prints (judgeopt.planners.session.solve). `problem`: a
+    Problem, a name, or planners already loaded (`load_planners`, to solve again without
+    reloading); `simulate`: replay each plan in the task's scene, in `world` where it differs
+    from what the planners were told; `options`: session.solve's (warm_start, ranges, suggest)."""
+    from judgeopt.planners import session
+
+    planners = problem if hasattr(problem, "judge_meta") else load_planners(problem, methods)
+    sim = simulator(planners.problem.task) if simulate else None
+    try:
+        return session.solve(planners, simulator=sim, world=world, **options)
+    finally:
+        if sim is not None and hasattr(sim, "close"):
+            sim.close()
+
+
+def load_judge(path: str | Path = "models/judge_default") -> Any:
+    """A trained judge (judgeopt.judge.store.load_judge): `.predict_proba(trajectories, envs)`."""
+    from judgeopt.files import resolve
+    from judgeopt.judge.store import load_judge as load
+
+    return load(resolve(path, (".json",)))[0]
+
+
+def get_task(name: str = "scoop") -> Any:
+    """A task: its channels, environment variables and scene (judgeopt.tasks)."""
+    from judgeopt.tasks import get_task as get
+
+    return get(name)
+
+
+def simulator(task: str = "scoop") -> Any:
+    """A new simulator of the task's scene: `.simulate(plan, env)` replays a plan, `.execute(plan,
+    env)` steps it (close it when done)."""
+    return get_task(task).simulator()
