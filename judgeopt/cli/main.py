@@ -6,6 +6,7 @@ import argparse
 import json
 import logging
 import sys
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -257,8 +258,20 @@ def _log_to_stderr(quiet: bool) -> None:
     log.setLevel(logging.WARNING if quiet else logging.INFO)
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """A problem file's field in its old place is one line of note; other warnings as Python shows them."""
+    if category.__name__ == "ProblemDeprecation":
+        print(f"note: {message}", file=sys.stderr)
+    else:
+        _python_show_warning(message, category, filename, lineno, file, line)
+
+
+_python_show_warning = warnings.showwarning
+
+
 def main(argv: list[str] | None = None) -> int:
     set_argv(argv)
+    warnings.showwarning = _show_warning
     args = build_parser().parse_args(argv)
     command = f"judgeopt {args.command}"
     _log_to_stderr(getattr(args, "quiet", False))

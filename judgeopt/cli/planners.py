@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import sys
@@ -16,11 +15,11 @@ import numpy as np
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, out_option,
                                  positive, seed_option, threads_option, value_range)
 from judgeopt.files import refuse_overwrite
-from judgeopt.planners.problem import AXIS_FIELDS, FORCE_FIELDS, SECTIONS, Problem, ProblemError, load_problem
+from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
+                                       load_problem)
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
 
-_FIELD_TYPES = {f.name: f.type for f in dataclasses.fields(Problem)}
 
 
 def _number_or_name(text: str) -> float | str:
@@ -46,9 +45,9 @@ def _parser_type(name: str):
         return _per_axis(_number_or_name)
     if name in AXIS_FIELDS + FORCE_FIELDS:
         return _per_axis(float)
-    if name in SECTIONS["models"] or str(_FIELD_TYPES[name]) == "str":
+    if name in SECTIONS["models"] or str(FIELD_TYPES[name]) == "str":
         return str
-    return int if str(_FIELD_TYPES[name]) == "int" else float
+    return int if str(FIELD_TYPES[name]) == "int" else float
 
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:

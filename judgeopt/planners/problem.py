@@ -17,9 +17,11 @@ needs mu); a variable in neither has the task's nominal value (`world_env`).
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import tomllib
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -60,17 +62,26 @@ class InfeasibleProblemError(ProblemError):
 
 EnvValue = float | tuple[float, float]
 
-# TOML section -> fields it holds (the flat dataclass keeps overrides simple: one name each)
+# TOML section -> fields it holds (each field has one name, so overrides name it without its section)
 SECTIONS: dict[str, tuple[str, ...]] = {
     "horizon": ("steps", "dt"),
     "start": ("q0", "qdot0"),
     "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
     "terminal": ("q_end", "qdot_end"),
-    "weights": ("P", "Q", "R", "acc_weight", "force_rate_weight"),
+    "cost": ("acc_weight", "force_rate_weight"),
     "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region", "replan_period",
                "replan_trigger"),
+    "generator": ("P", "Q", "R"),
     "models": ("judge", "ensemble", "trust_model", "calibration"),
 }
+#: field -> its section
+SECTION_OF: dict[str, str] = {k: section for section, names in SECTIONS.items() for k in names}
+#: sections read in their old place, with a note: old section -> the fields it held
+OLD_SECTIONS: dict[str, tuple[str, ...]] = {"weights": ("P", "Q", "R", "acc_weight", "force_rate_weight")}
+
+
+class ProblemDeprecation(FutureWarning):
+    """A problem file that still works but holds a field in its old place (shown once per file and field)."""
 #: the position, velocity and force limits (bounds a planner can change without being rebuilt)
 LIMIT_NAMES = SECTIONS["limits"]
 #: what each field means, with its unit (the command line's help; position fields per axis of the task)
@@ -110,15 +121,15 @@ FIELD_HELP: dict[str, str] = {
 
 
 @dataclass(frozen=True)
-class Problem:
-    """Units: m, m/s, N, s. Defaults are the paper's Table 3 (simulation).
+class Motion:
+    """What is planned (acados' model, constraints and cost): the task, horizon, start, limits,
+    terminal state, the smoothing cost both planners minimise, and the environment. Units: m,
+    m/s, N, s; defaults are the paper's Table 3 (simulation).
 
     Position, velocity and terminal fields hold one value per position axis of the task, or one
     value for every axis; f_min and f_max one per force channel, or one for all. q_end is a
     number, the name of an environment variable (the scoop's "y_obj") or "free"."""
 
-    name: str = "unnamed"
-    description: str = ""
     task: str = DEFAULT_TASK
     steps: int = DEFAULT_HORIZON
     dt: float = DEFAULT_DT
@@ -132,48 +143,111 @@ class Problem:
     f_max: float | list[float] = 22.5
     q_end: float | str | list[float | str] = Y_OBJ
     qdot_end: float | list[float] = 0.0
+    # smoothing (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s): keeps both planners away from
+    # bang-bang plans the controller cannot follow
+    acc_weight: float = 1e-3
+    force_rate_weight: float = 1e-6
     environment: dict[str, EnvValue] = field(default_factory=lambda: get_task(DEFAULT_TASK).env_ranges())
     # the task's variables the planners do not read, as the simulated world has them ([world])
     world: dict[str, float] = field(default_factory=dict)
-    # loss weights: eq. (3) P; eq. (4) Q (limits) and R (terminal) for the generator; the
-    # smoothing terms (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s) keep the direct
-    # solve away from bang-bang plans the controller cannot follow.
-    P: float = 1.0
-    Q: float = 1000.0
-    R: float = 1000.0
-    acc_weight: float = 1e-3
-    force_rate_weight: float = 1e-6
-    # the direct solve's objective: "target" reaches p >= p_target with the least effort and the
-    # least change to its warm start (a well-posed optimum, a few iterations; docs/planners.md);
-    # "log_p" maximises the judge, eq. (3): -P log y_judge (the paper's)
+
+
+@dataclass(frozen=True)
+class SolverOptions:
+    """How the direct solve and the receding planner run (acados' solver options)."""
+
+    # "target" reaches p >= p_target with the least effort and the least change to its warm start (a
+    # well-posed optimum, a few iterations; docs/planners.md); "log_p" maximises the judge, eq. (3): -P log y_judge
     objective: str = "target"
     p_target: float = 0.98
-    p_min: float | None = None  # optional hard constraint y_judge >= p_min in the direct solve
+    p_min: float | None = None  # optional hard constraint y_judge >= p_min
     max_iter: int = 300
     tol: float = 1e-6
+    # remedies against exploiting the judge (off unless set): maximise mean - pessimism * std of an ensemble's
+    # logits; keep the plan within `trust_region` (Mahalanobis distance) of the demonstrations
+    pessimism: float = 1.0
+    trust_region: float | None = None
     replan_period: float = 0.1  # the receding planner's: the direct solve re-run every this many seconds
     # ... when the judge asks for it ("judge"), or every time ("always": measured worse when the world differs from
     # what was said, benchmarks/bench_receding.py; docs/planners.md)
     replan_trigger: str = "judge"
+
+
+@dataclass(frozen=True)
+class GeneratorWeights:
+    """The amortised generator's training loss, eq. (4): P on -log y_judge (eq. 3), Q on squared
+    limit violations, R on squared terminal errors (hard in the direct solve)."""
+
+    P: float = 1.0
+    Q: float = 1000.0
+    R: float = 1000.0
+
+
+@dataclass(frozen=True)
+class ModelRefs:
+    """Which trained files the planners load (names as `judgeopt.files.resolve` finds them)."""
+
     judge: str = ""  # empty: the task's default judge
-    # remedies against exploiting the judge (off unless set): the direct solve maximises
-    # mean - pessimism * std of an ensemble's logits; and/or keeps the plan within
-    # `trust_region` (Mahalanobis distance) of the demonstrations modelled in `trust_model`
-    ensemble: str | None = None
-    pessimism: float = 1.0
-    trust_region: float | None = None
+    ensemble: str | None = None  # ensemble folder for pessimistic planning
     trust_model: str = "models/trust_region_default"
-    # predicted success recalibrated on the planners' replayed outcomes (judgeopt calibrate);
-    # used where the file has the planner's setting, ignored where it is missing
+    # predicted success recalibrated on the planners' replayed outcomes (judgeopt calibrate); used where
+    # the file has the planner's setting, ignored where it is missing
     calibration: str | None = "models/calibration_default.json"
-    # where the plan's axes lie for a robot ([frame]; judgeopt.planners.frame): not part of what is planned
-    frame: dict[str, Any] | None = None
-    source: str = ""  # the file it came from (for messages and provenance)
+
+
+#: the problem's parts (attribute -> class); every field of a part is also read from the problem by name
+PARTS: dict[str, type] = {"motion": Motion, "solver": SolverOptions, "generator": GeneratorWeights, "models": ModelRefs}
+#: field name -> the part holding it
+PART_OF: dict[str, str] = {f.name: part for part, cls in PARTS.items() for f in dataclasses.fields(cls)}
+#: every field by name, in the order of the flat records (Problem.to_dict) written before the split
+FIELDS: tuple[str, ...] = ("name", "description", "task", "steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min",
+                           "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "environment", "world", "P", "Q", "R",
+                           "acc_weight", "force_rate_weight", "objective", "p_target", "p_min", "max_iter", "tol",
+                           "replan_period", "replan_trigger", "judge", "ensemble", "pessimism", "trust_region",
+                           "trust_model", "calibration", "frame", "source")
+#: each field's type, for parsing overrides from text
+FIELD_TYPES: dict[str, Any] = {f.name: f.type for cls in PARTS.values() for f in dataclasses.fields(cls)}
+
+
+@dataclass(frozen=True, init=False)
+class Problem:
+    """A planning problem in parts, the way acados groups its problem object: `motion` (what is
+    planned), `solver` (options of the direct solve and the receding planner), `generator` (the
+    generator's training weights), `models` (the files the planners load) and `frame` (where the
+    plan's axes lie for a robot: [frame], judgeopt.planners.frame; not part of what is planned).
+
+    Every field of a part is also read, overridden (`with_overrides`) and given to the
+    constructor by name: `Problem(qdot_max=0.4).qdot_max == Problem().motion.qdot_max`."""
+
+    name: str
+    description: str
+    motion: Motion
+    solver: SolverOptions
+    generator: GeneratorWeights
+    models: ModelRefs
+    frame: dict[str, Any] | None
+    source: str  # the file it came from (for messages and provenance)
+
+    def __init__(self, name: str = "unnamed", description: str = "", motion: Motion | None = None,
+                 solver: SolverOptions | None = None, generator: GeneratorWeights | None = None,
+                 models: ModelRefs | None = None, frame: dict[str, Any] | None = None, source: str = "",
+                 **fields: Any) -> None:
+        given = {"motion": motion, "solver": solver, "generator": generator, "models": models}
+        unknown = [k for k in fields if k not in PART_OF]
+        if unknown:
+            raise TypeError(f"unknown problem field(s) {unknown}")
+        for part, cls in PARTS.items():
+            mine = {k: v for k, v in fields.items() if PART_OF[k] == part}
+            value = given[part] or cls()
+            object.__setattr__(self, part, dataclasses.replace(value, **mine) if mine else value)
+        for k, v in (("name", name), ("description", description), ("frame", frame), ("source", source)):
+            object.__setattr__(self, k, v)
+        self.__post_init__()
 
     def __post_init__(self) -> None:
         self.validate()
         if not self.judge:
-            object.__setattr__(self, "judge", get_task(self.task).default_judge)
+            object.__setattr__(self, "models", dataclasses.replace(self.models, judge=get_task(self.task).default_judge))
 
     # -- validation -----------------------------------------------------------------
     def validate(self) -> None:
@@ -388,7 +462,7 @@ class Problem:
         value ([world])."""
         values = {k: v for k, v in values.items() if v is not None}
         env, world = dict(self.environment), dict(self.world)
-        fields = {f.name for f in dataclasses.fields(self)}
+        fields = set(FIELDS)
         task_vars = get_task(self.task).env_names
         changes: dict[str, Any] = {}
         for k, v in values.items():
@@ -415,20 +489,34 @@ class Problem:
                                                "f_min", "f_max", "q_end", "qdot_end")}
 
     def to_dict(self) -> dict[str, Any]:
-        d = dataclasses.asdict(self)
-        del d["frame"]  # where a plan goes, not what is planned: plan JSON records it (export.plan_record)
+        """Every field by name, as records and setting ids have held it since before the split
+        (the frame left out: where a plan goes, not what is planned; plan JSON records it)."""
+        d = {k: copy.deepcopy(getattr(self, k)) for k in FIELDS if k != "frame"}
         if not self.world:  # records of problems without one read as before
             del d["world"]
         d["environment"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.environment.items()}
         return d
 
+    def parts(self) -> dict[str, dict[str, Any]]:
+        """The problem part by part (motion, solver, generator, models, frame)."""
+        return {**{part: dataclasses.asdict(getattr(self, part)) for part in PARTS}, "frame": self.frame}
+
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "Problem":
+        """From `to_dict`'s flat form (or a problem file read flat)."""
         d = dict(d)
         d["environment"] = {k: _env_value(k, v, d.get("source", "")) for k, v in d.get("environment", {}).items()}
         d["world"] = {k: float(v) if isinstance(v, int) and not isinstance(v, bool) else v
                       for k, v in d.get("world", {}).items()}
         return cls(**d)
+
+
+def _read_by_name(part: str, name: str) -> property:
+    return property(lambda self: getattr(getattr(self, part), name), doc=f"{part}.{name}")
+
+
+for _name, _part in PART_OF.items():
+    setattr(Problem, _name, _read_by_name(_part, _name))
 
 
 def _env_value(name: str, v: Any, source: str) -> EnvValue:
@@ -462,11 +550,16 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
     if "base" in raw:
         flat = _read_toml(_base_path(path, raw.pop("base")), seen + (path,))
     for key, value in raw.items():
-        if key in SECTIONS:
+        if key in SECTIONS or key in OLD_SECTIONS:
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [{key}] must be a table")
             for k, v in value.items():
-                if k not in SECTIONS[key]:
+                if k in OLD_SECTIONS.get(key, ()):
+                    warnings.warn(f"{path}: [{key}] {k} is read from its old place; move it to [{SECTION_OF[k]}]",
+                                  ProblemDeprecation, stacklevel=2)
+                elif k in SECTION_OF and k not in SECTIONS.get(key, ()):
+                    raise ProblemError(f"{path}: {k} belongs in [{SECTION_OF[k]}], not [{key}]: move it there")
+                elif k not in SECTIONS.get(key, ()):
                     raise ProblemError(f"{path}: unknown key {k!r} in [{key}]; allowed: {list(SECTIONS[key])}")
                 flat[k] = v
         elif key == "environment":

@@ -7,7 +7,7 @@ import shutil
 import pytest
 
 from judgeopt.files import REPO
-from judgeopt.planners.problem import ProblemError, ProblemFileError, load_problem
+from judgeopt.planners.problem import Problem, ProblemError, ProblemFileError, load_problem
 from judgeopt.tasks import get_task
 
 PROBLEMS = REPO / "judgeopt" / "tasks" / "scoop" / "problems"
@@ -66,3 +66,38 @@ def test_a_base_next_to_the_file_comes_first(tmp_path):
     (tmp_path / "lost.toml").write_text('base = "nowhere.toml"\n')
     with pytest.raises(ProblemFileError, match="base = 'nowhere.toml' not found"):
         load_problem(tmp_path / "lost.toml")
+
+
+def test_the_problem_is_in_parts_and_every_field_is_read_and_set_by_name():
+    from judgeopt.planners.problem import GeneratorWeights, Motion, ModelRefs, SolverOptions
+
+    p = Problem(qdot_max=0.4, p_target=0.9, Q=10.0, judge="models/judge_default")
+    assert (type(p.motion), type(p.solver), type(p.generator), type(p.models)) == (Motion, SolverOptions,
+                                                                                   GeneratorWeights, ModelRefs)
+    assert (p.motion.qdot_max, p.solver.p_target, p.generator.Q, p.models.judge) == (0.4, 0.9, 10.0, "models/judge_default")
+    assert (p.qdot_max, p.p_target, p.Q, p.judge) == (0.4, 0.9, 10.0, "models/judge_default")
+    q = p.with_overrides(tol=1e-4, f_min=5.0)
+    assert (q.solver.tol, q.motion.f_min, q.motion.qdot_max, p.solver.tol) == (1e-4, 5.0, 0.4, 1e-6)
+    # the flat record plan files, generator files and setting ids have always held: same keys, same order
+    assert list(Problem().to_dict()) == [
+        "name", "description", "task", "steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "f_min",
+        "f_max", "q_end", "qdot_end", "environment", "P", "Q", "R", "acc_weight", "force_rate_weight", "objective",
+        "p_target", "p_min", "max_iter", "tol", "replan_period", "replan_trigger", "judge", "ensemble", "pessimism",
+        "trust_region", "trust_model", "calibration", "source"]
+    assert Problem.from_dict(q.to_dict()) == q
+    with pytest.raises(TypeError, match="unknown problem field"):
+        Problem(qdotmax=0.4)
+
+
+def test_a_field_in_its_old_section_still_reads_with_a_note_and_one_in_a_wrong_one_is_refused(tmp_path):
+    from judgeopt.planners.problem import ProblemDeprecation
+
+    old = tmp_path / "old.toml"
+    old.write_text('base = "paper_sim.toml"\n[weights]\nQ = 500.0\nacc_weight = 2e-3\n')
+    with pytest.warns(ProblemDeprecation, match=r"\[weights\] Q is read from its old place; move it to \[generator\]"):
+        p = load_problem(old)
+    assert (p.generator.Q, p.motion.acc_weight) == (500.0, 2e-3)
+    wrong = tmp_path / "wrong.toml"
+    wrong.write_text('base = "paper_sim.toml"\n[solver]\njudge = "models/judge_default"\n')
+    with pytest.raises(ProblemError, match=r"judge belongs in \[models\], not \[solver\]: move it there"):
+        load_problem(wrong)
