@@ -1,10 +1,12 @@
 """One value + gradient of the judge through each CasADi backend against torch autograd.
 
-Default-size judge (LSTM 2 x 100, FC 2 x 102) at the default horizon N = 30, one
-trajectory. Prints per-call times (median of --repeat calls after a warm-up), their
-ratios to torch autograd (float32 as trained, and float64), build times, and the time of a second build (cache hit).
+Any saved judge (--model, default the shipped LSTM 2 x 100, FC 2 x 102), or a random
+default-size judge of an architecture (--arch), at its horizon (N = 30), one trajectory.
+Prints per-call times (median of --repeat calls after a warm-up), their ratios to torch
+autograd (float32 as trained, and float64), build times, and the time of a second build (cache hit).
+Backends the architecture does not offer (native and compiled need a CasADi graph) are skipped.
 
-    .venv/bin/python benchmarks/bench_judge_casadi.py [--model models/judge_default] [--threads 1]
+    .venv/bin/python benchmarks/bench_judge_casadi.py [--model models/judge_default | --arch tcn] [--threads 1]
 
 --cache-dir defaults to a fresh temporary folder so the build times are real builds.
 """
@@ -21,7 +23,8 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from judgeopt.judge.casadi_fn import BACKENDS, build_casadi_judge, torch_logit_and_grad
+from judgeopt.judge.archs import ARCHS
+from judgeopt.judge.casadi_fn import BACKENDS, backends_for, build_casadi_judge, torch_logit_and_grad
 from judgeopt.judge.model import Judge, JudgeConfig
 from judgeopt.judge.store import load_judge
 
@@ -42,6 +45,7 @@ def timeit(fn, x: np.ndarray, repeat: int) -> float:
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", default="models/judge_default", help="saved judge (random default-size one if absent)")
+    p.add_argument("--arch", choices=list(ARCHS), help="a random default-size judge of this architecture instead")
     p.add_argument("--backends", default="native,compiled,torch,torch:float32,l4casadi",
                    help=f"comma-separated from {list(BACKENDS)}; torch:float32 for the float32 callback")
     p.add_argument("--repeat", type=int, default=30)
@@ -52,13 +56,13 @@ def main() -> None:
     args = p.parse_args()
     torch.set_num_threads(args.threads)
 
-    if Path(args.model + ".json").exists():
+    if Path(args.model + ".json").exists() and not args.arch:
         model, _ = load_judge(args.model)
         source = args.model
     else:
         torch.manual_seed(0)
-        model = Judge(JudgeConfig()).eval()
-        source = "random default-size judge"
+        model = Judge(JudgeConfig(arch=args.arch or "lstm")).eval()
+        source = f"random default-size {model.config.arch} judge"
     cfg = model.config
     n1 = cfg.horizon + 1
     rng = np.random.default_rng(0)
@@ -66,8 +70,8 @@ def main() -> None:
     y = -0.03 + 0.25 * (3 * t**2 - 2 * t**3)
     x = np.stack([y, np.gradient(y, cfg.dt), 12 + rng.normal(0, 2, n1)], axis=1)
     e = np.array([0.19, 2.0][: cfg.n_env])
-    print(f"judge: {source}; LSTM {cfg.lstm_layers} x {cfg.lstm_units}, FC {cfg.fc_layers} x {cfg.fc_units}, "
-          f"N = {cfg.horizon}, torch threads {args.threads}")
+    print(f"judge: {source}; {cfg.arch}: {cfg.spec.describe(cfg.net)}, "
+          f"{sum(q.numel() for q in model.parameters())} parameters, N = {cfg.horizon}, torch threads {args.threads}")
 
     results: dict[str, dict] = {}
     calls: dict[str, tuple] = {}
@@ -98,6 +102,9 @@ def main() -> None:
     for spec in args.backends.split(","):
         backend, _, precision = spec.partition(":")
         precision = precision or "float64"
+        if backend not in backends_for(cfg):
+            print(f"skipped {spec}: a {cfg.arch} judge has no CasADi graph")
+            continue
         cj = build_casadi_judge(model, backend, cache_dir=cache, precision=precision)
         t0 = time.perf_counter()
         cj2 = build_casadi_judge(model, backend, cache_dir=cache, precision=precision)
@@ -128,7 +135,7 @@ def main() -> None:
         print(f"{name:26s} {1e3 * r['value_grad_s']:9.2f}ms {1e3 * r['value_s']:7.2f}ms "
               f"{r['value_grad_s'] / ref:9.2f} {r['value_grad_s'] / ref32:9.2f} {build:>8s} {second:>10s} {err:>9s}")
     if args.json:
-        Path(args.json).write_text(json.dumps({"model": source, "threads": args.threads, "repeat": args.repeat,
+        Path(args.json).write_text(json.dumps({"model": source, "arch": cfg.arch, "threads": args.threads, "repeat": args.repeat,
                                                "rounds": args.rounds, "results": results}, indent=1) + "\n")
 
 

@@ -38,6 +38,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     if out.suffix in (".pt", ".json"):
         out = out.with_suffix("")
     refuse_overwrite(model_paths(out), args.overwrite)
+    arch_settings(args)  # a bad --arch or --set before any data is read
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     parts = [load(p) for p in args.train]
     try:
@@ -54,9 +55,8 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         raise CLIError(f"{args.test} (task {test_ds.task}, channels {','.join(test_ds.channels)}, N = {test_ds.horizon}, "
                        f"dt = {test_ds.dt}) does not match {' '.join(args.train)} (task {train_ds.task}, channels "
                        f"{','.join(train_ds.channels)}, N = {train_ds.horizon}, dt = {train_ds.dt})")
-    config = JudgeConfig(lstm_units=args.lstm_units, fc_units=args.fc_units, dropout=args.dropout,
-                         lstm_dropout=args.lstm_dropout, env_names=env_names, horizon=train_ds.horizon, dt=train_ds.dt,
-                         channels=train_ds.channels, units=train_ds.units or dict(JudgeConfig().units))
+    config = JudgeConfig(arch=args.arch, **arch_settings(args), env_names=env_names, horizon=train_ds.horizon,
+                         dt=train_ds.dt, channels=train_ds.channels, units=train_ds.units or None)
     tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
                      input_noise=args.input_noise,
                      invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.threads,
@@ -112,6 +112,55 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     return 0
 
 
+#: the LSTM's options train-judge had before --arch and --set: shorthands for --set FIELD=VALUE
+ARCH_OPTIONS = {"lstm_units": "--lstm-units", "fc_units": "--fc-units", "dropout": "--dropout",
+                "lstm_dropout": "--lstm-dropout"}
+
+
+def arch_settings(args: argparse.Namespace) -> dict[str, Any]:
+    """The architecture fields given (--set FIELD=VALUE and the shorthands), each parsed as the
+    type its dataclass declares; one-line errors for an unknown architecture or field."""
+    from dataclasses import fields
+
+    from judgeopt.judge.archs import get_arch
+    from judgeopt.judge.model import JudgeError
+
+    try:
+        spec = get_arch(args.arch)
+    except JudgeError as exc:
+        raise CLIError(f"--arch {args.arch}: {exc}") from None
+    own = {f.name: f for f in fields(spec.Config)}
+
+    def no_field(flag: str, key: str) -> CLIError:
+        return CLIError(f"{flag}: the {spec.name} architecture has no field {key!r} (its fields: {', '.join(own)})")
+
+    given: dict[str, Any] = {}
+    for key, flag in ARCH_OPTIONS.items():
+        if getattr(args, key, None) is not None:
+            if key not in own:
+                raise no_field(flag, key)
+            given[key] = getattr(args, key)
+    parse = {"int": int, "float": float, "bool": lambda v: {"true": True, "false": False}[v.lower()]}
+    for item in args.set or []:
+        key, sep, text = item.partition("=")
+        if not sep:
+            first = next(iter(own))
+            raise CLIError(f"--set {item!r}: give FIELD=VALUE, e.g. {first}={getattr(spec.Config(), first)}")
+        if key not in own:
+            raise no_field(f"--set {item}", key)
+        kind = str(own[key].type)  # the dataclass's annotation, a string under `from __future__ import annotations`
+        try:
+            given[key] = parse.get(kind, str)(text)
+        except (ValueError, KeyError):
+            raise CLIError(f"--set {item}: {key} is {'true or false' if kind == 'bool' else 'a number (' + kind + ')'}"
+                           ) from None
+    try:
+        spec.Config(**given)  # its checks (sizes, dropout ranges) before any data is read
+    except JudgeError as exc:
+        raise CLIError(f"--arch {spec.name}: {exc}") from None
+    return given
+
+
 # -- test-judge ------------------------------------------------------------------------------
 def cmd_test_judge(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
@@ -130,7 +179,7 @@ def cmd_test_judge(args: argparse.Namespace) -> int:
     if inverted:
         m["accuracy_vs_training_target"] = evaluate_judge(model, ds, invert_labels=True)["accuracy"]
     m["seconds"] = time.perf_counter() - t0
-    m.update(model=str(model_path), data=str(args.data), invert_labels=inverted,
+    m.update(model=str(model_path), data=str(args.data), invert_labels=inverted, arch=model.config.arch,
              env_names=list(model.config.env_names))
     if args.json:
         print(json.dumps(_json_safe(m)))
@@ -157,14 +206,19 @@ def _json_safe(v: Any) -> Any:
 # -- inspect ---------------------------------------------------------------------------------
 def inspect_model(path: str | os.PathLike) -> dict[str, Any]:
     """A saved judge's metadata, validated by loading the weights too."""
+    from judgeopt.judge.casadi_fn import backends_for
     from judgeopt.judge.store import load_judge
 
     model, meta = load_judge(resolve(path, (".json",)))
     n_params = sum(p.numel() for p in model.parameters())
     metrics = meta.get("metrics", {})
+    cfg = model.config
     return {
         "path": str(path),
-        "config": meta["config"],
+        "arch": cfg.arch,
+        "network": cfg.spec.describe(cfg.net),
+        "casadi_backends": list(backends_for(cfg)),
+        "config": cfg.to_dict(),  # as loaded: a file from before architectures had names reads arch "lstm"
         "parameters": n_params,
         "invert_labels": meta.get("invert_labels", False),
         "val_accuracy": metrics.get("val_accuracy"),
@@ -188,8 +242,8 @@ def format_model_info(info: dict[str, Any]) -> str:
     td = info.get("train_data") or {}
     return "\n".join([
         f"{info['path']}  (judge, judgeopt {info['package_version']}, {info['created']})",
-        f"  network        : LSTM {c['lstm_layers']} x {c['lstm_units']}, FC {c['fc_layers']} x {c['fc_units']}, "
-        f"dropout {c['dropout']}, {info['parameters']} parameters",
+        f"  network        : {info['arch']}: {info['network']}, {info['parameters']} parameters",
+        f"  CasADi         : backends {', '.join(info['casadi_backends'])}",
         f"  reads          : {', '.join(c['channels'])} over N = {c['horizon']} steps of {c['dt']} s; "
         f"env {', '.join(c['env_names'])}" + ("  (trained on INVERTED labels)" if info["invert_labels"] else ""),
         f"  accuracy       : validation {acc(info['val_accuracy'])}, test {acc(info['test_accuracy'])} "
@@ -205,7 +259,7 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     from judgeopt.judge.train import TrainConfig
     t = subparsers.add_parser(
         "train-judge", help="train the success judge NN_judge on a demonstration file",
-        description="LSTM success judge (paper Fig. 2, Table 2) trained with Adam on the responses; the epoch "
+        description="Success judge (the paper's LSTM, Fig. 2, Table 2, or another --arch) trained with Adam on the responses; the epoch "
         "with the best accuracy on a validation split of --train is kept, --test is only reported. Writes "
         "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.",
         parents=[out_option("STEM", "model path without suffix, e.g. out/my_judge", required=True), OVERWRITE,
@@ -221,10 +275,16 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
     t.add_argument("--env-names", type=names, help="environment variables the judge sees (default: all in --train)")
     t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
-    t.add_argument("--lstm-units", type=positive, default=100, help="units of each of the two LSTM layers")
-    t.add_argument("--fc-units", type=positive, default=102, help="units of the feed-forward layers")
-    t.add_argument("--dropout", type=float, default=0.3, help="dropout of the feed-forward layers")
-    t.add_argument("--lstm-dropout", type=float, default=0.3, help="dropout between the LSTM layers")
+    from judgeopt.judge.archs import ARCHS, DEFAULT_ARCH, arch_fields
+    t.add_argument("--arch", default=DEFAULT_ARCH, metavar="NAME",
+                   help=f"network architecture: {', '.join(ARCHS)} (judgeopt/judge/archs/)")
+    t.add_argument("--set", action="append", metavar="FIELD=VALUE",
+                   help="one of the architecture's fields (default: its dataclass's); "
+                   + "; ".join(f"{a}: {', '.join(arch_fields(a))}" for a in ARCHS))
+    t.add_argument("--lstm-units", type=positive, help="--set lstm_units=: units of each of the LSTM layers")
+    t.add_argument("--fc-units", type=positive, help="--set fc_units=: units of the feed-forward layers")
+    t.add_argument("--dropout", type=float, help="--set dropout=: dropout of the feed-forward layers")
+    t.add_argument("--lstm-dropout", type=float, help="--set lstm_dropout=: dropout between the LSTM layers")
     t.set_defaults(func=cmd_train_judge)
 
     e = subparsers.add_parser(

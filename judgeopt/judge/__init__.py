@@ -1,6 +1,7 @@
 """The success judge NN_judge (paper II, Fig. 2): P(success | response trajectory, environment).
 
-model.py     the network (nn.LSTM for training) and its export forms
+model.py     the judge: config, normalisation, checked entry points; its network from archs/
+archs/       the architectures by name (lstm: the paper's, the default; tcn), each with its CasADi export
 train.py     training with a validation split, history and Fig. 6-style plot
 store.py     <name>.pt + <name>.json, validated loading, compatibility checks
 evaluate.py  accuracy, precision, recall, calibration, confusion matrix

@@ -22,6 +22,8 @@ Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py,
   "native"     the network as a CasADi MX graph (0.1 s to build, no Python or libtorch at
                solve time, usable in code generation); about 1.7x torch autograd (float64).
   "compiled"   that graph generated as C and compiled with gcc -O2 (about 80 s, cached).
+"native" and "compiled" exist only for architectures with a CasADi graph (Arch.casadi_graph:
+the LSTM); l4casadi and the torch callbacks take any architecture (backends_for).
 """
 
 from __future__ import annotations
@@ -45,24 +47,35 @@ import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.judge.model import Judge, JudgeError, UnrolledJudge, lstm_layer_weights
+from judgeopt.judge.archs import casadi_sigmoid
+from judgeopt.judge.model import Judge, JudgeConfig, JudgeError
 
 BACKENDS = ("native", "compiled", "torch", "torch32", "l4casadi")
+#: the backends that need the network as a CasADi MX graph (Arch.native_logit)
+GRAPH_BACKENDS = ("native", "compiled")
 #: "auto": l4casadi where it is installed (the fastest exact float64 backend, docs/judge.md), else native
 DEFAULT_BACKEND = "auto"
 log = logging.getLogger("judgeopt")
 
 
-def choose_backend(backend: str = DEFAULT_BACKEND, noise_tolerant: bool = False) -> str:
+def choose_backend(backend: str = DEFAULT_BACKEND, noise_tolerant: bool = False,
+                   config: JudgeConfig | None = None) -> str:
     """`backend` itself, or for "auto" the fastest one for the use: where ~1e-7 relative noise
     is harmless (`noise_tolerant`: the judge as a constraint) the float32 callback, 3-4x
     faster than any float64 one (benchmarks/bench_direct.py --levers); else l4casadi where it
-    is installed, else native."""
+    is installed, else native (torch for an architecture without a CasADi graph, `config`)."""
     if backend != "auto":
         return backend
     if noise_tolerant:
         return "torch32"
-    return "l4casadi" if importlib.util.find_spec("l4casadi") is not None else "native"
+    if importlib.util.find_spec("l4casadi") is not None:
+        return "l4casadi"
+    return "native" if config is None or config.spec.casadi_graph else "torch"
+
+
+def backends_for(config: JudgeConfig) -> tuple[str, ...]:
+    """The backends a judge of this architecture can be built with."""
+    return tuple(b for b in BACKENDS if config.spec.casadi_graph or b not in GRAPH_BACKENDS)
 
 
 class CasadiBuildError(JudgeError):
@@ -115,7 +128,10 @@ def model_hash(judge: Judge) -> str:
     Why the content and not the .pt file's bytes: the same weights give the same hash
     whether the model came from a file or from memory, and any retraining changes it.
     """
-    h = hashlib.sha256(json.dumps(judge.config.to_dict(), sort_keys=True).encode())
+    config = judge.config.to_dict()
+    if config["arch"] == "lstm":  # as before architectures had names: LSTM judges keep their built libraries
+        del config["arch"]
+    h = hashlib.sha256(json.dumps(config, sort_keys=True).encode())
     for name, t in sorted(judge.state_dict().items()):
         h.update(name.encode())
         h.update(t.detach().cpu().double().contiguous().numpy().tobytes())
@@ -132,9 +148,12 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
     gradient, which can stall a line search at tight tolerances. The other backends are float64.
     `noise_tolerant`: what "auto" may choose (choose_backend).
     """
-    backend = choose_backend(backend, noise_tolerant)
+    backend = choose_backend(backend, noise_tolerant, judge.config)
     if backend not in BACKENDS:
         raise JudgeError(f"unknown CasADi backend {backend!r}; choose one of {['auto', *BACKENDS]}")
+    if backend not in backends_for(judge.config):
+        raise JudgeError(f"a {judge.config.arch} judge has no CasADi graph, so no {backend!r} backend; its backends: "
+                         f"{', '.join(['auto', *backends_for(judge.config)])}")
     if precision not in ("float64", "float32"):
         raise JudgeError(f"precision must be 'float64' or 'float32', got {precision!r}")
     judge = judge.eval()
@@ -169,41 +188,17 @@ def _n_traj(judge: Judge) -> int:
 
 # -- native MX graph -------------------------------------------------------------------------
 def _native_function(judge: Judge, name: str) -> cs.Function:
-    """The network as an MX graph. The input projection of each LSTM layer is one matrix
-    product over all steps; only the recurrent product stays per step (fewer, larger ops
-    are what CasADi's virtual machine runs fast)."""
+    """The network as an MX graph: the normalisation here, the network from its architecture
+    (Arch.native_logit)."""
     cfg = judge.config
-    n1, H = cfg.horizon + 1, cfg.lstm_units
+    n1 = cfg.horizon + 1
     x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", cfg.n_env)
     xm, xs = (cs.DM(getattr(judge, k).detach().double().numpy()) for k in ("x_mean", "x_std"))
     em, es = (cs.DM(getattr(judge, k).detach().double().numpy()) for k in ("e_mean", "e_std"))
     X = (cs.reshape(x, cfg.n_channels, n1) - cs.repmat(xm, 1, n1)) / cs.repmat(xs, 1, n1)
     U = cs.vertcat(X, cs.repmat((e - em) / es, 1, n1)) if cfg.n_env else X
-
-    def sig(v: cs.MX) -> cs.MX:
-        # via tanh: 1 / (1 + exp(-v)) has derivative inf / inf = NaN once exp(-v) overflows
-        return 0.5 + 0.5 * cs.tanh(0.5 * v)
-
-    h = None
-    for W, b in lstm_layer_weights(judge.lstm):
-        n_in = W.shape[1] - H
-        Z = cs.mtimes(cs.DM(W[:, :n_in]), U) + cs.repmat(cs.DM(b), 1, n1)
-        W_hh = cs.DM(W[:, n_in:])
-        hs = []
-        for k in range(n1):
-            z = Z[:, k] if k == 0 else Z[:, k] + cs.mtimes(W_hh, h)
-            i, f, g, o = sig(z[:H]), sig(z[H:2 * H]), cs.tanh(z[2 * H:3 * H]), sig(z[3 * H:])
-            c = i * g if k == 0 else f * c + i * g  # noqa: F821 (c defined at k = 0)
-            h = o * cs.tanh(c)
-            hs.append(h)
-        U = cs.horzcat(*hs)
-    a = h
-    linears = [m for m in judge.head if isinstance(m, nn.Linear)]
-    for j, lin in enumerate(linears):
-        a = cs.mtimes(cs.DM(lin.weight.detach().double().numpy()), a) + cs.DM(lin.bias.detach().double().numpy())
-        if j < len(linears) - 1:
-            a = cs.fmax(a, 0)
-    return cs.Function(name, [x, e], [a, sig(a)], ["traj", "env"], ["logit", "prob"])
+    a = cfg.spec.native_logit(judge, U)
+    return cs.Function(name, [x, e], [a, casadi_sigmoid(a)], ["traj", "env"], ["logit", "prob"])
 
 
 # -- compiled C of the native graph ---------------------------------------------------------
@@ -240,7 +235,8 @@ def _compiled_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
 
 # -- l4casadi -------------------------------------------------------------------------------
 def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Path]:
-    """l4casadi of the unrolled concat-Linear cell model (float64), built once per model.
+    """l4casadi of the architecture's flat module (Arch.flat_module; for the LSTM the unrolled
+    concat-Linear cell model), float64, built once per model.
 
     Built in a temporary folder with model_search_path pointing at the final folder, then
     renamed into place, so a half-built cache entry is never seen by another process."""
@@ -298,15 +294,17 @@ def _split_normalized(judge: Judge, x: cs.MX, e: cs.MX) -> cs.MX:
 
 
 class _SplitInput(nn.Module):
-    """The unrolled judge (float64) on normalised inputs sent as (z_hi, z_lo) halves."""
+    """The judge's flat module (float64) on normalised inputs sent as (z_hi, z_lo) halves."""
 
     def __init__(self, judge: Judge) -> None:
         super().__init__()
-        self.model = UnrolledJudge(judge).double()
-        for name in ("x_mean", "e_mean"):  # normalisation happens in CasADi (_split_normalized)
-            getattr(self.model, name).zero_()
-        for name in ("x_std", "e_std"):
-            getattr(self.model, name).fill_(1.0)
+        self.model = judge.config.spec.flat_module(judge).double()
+        for module in self.model.modules():  # normalisation happens in CasADi (_split_normalized)
+            for name, buf in module.named_buffers(recurse=False):
+                if name in ("x_mean", "e_mean"):
+                    buf.zero_()
+                elif name in ("x_std", "e_std"):
+                    buf.fill_(1.0)
 
     def forward(self, inp: torch.Tensor) -> torch.Tensor:
         n = inp.shape[1] // 2

@@ -1,4 +1,5 @@
-"""NN_judge (paper Fig. 2): an LSTM over the measured response, then feed-forward layers.
+"""NN_judge (paper Fig. 2): a network over the measured response (by default the paper's LSTM
+then feed-forward layers; the architectures are in judgeopt.judge.archs), one logit.
 
 Per step the network reads x_k = [y, ydot, f] of the RESPONSE concatenated with the
 environment e (repeated every step, as in Fig. 2), normalised by a mean/std fitted on the
@@ -8,54 +9,73 @@ CasADi functions built from it take raw physical values and cannot drift from tr
 
 from __future__ import annotations
 
-import copy
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, fields
 from typing import Any, Sequence
 
 import numpy as np
 import torch
 from torch import nn
 
+from judgeopt.judge.archs import DEFAULT_ARCH, SHARED_FIELDS, Arch, get_arch
+# the LSTM's export forms lived here before the architectures had modules of their own
+from judgeopt.judge.archs.lstm import ConcatLSTMCell, UnrolledJudge, lstm_layer_weights  # noqa: F401
+from judgeopt.judge.errors import JudgeError, TrajectoryError
 from judgeopt.trajectory import CHANNELS, DEFAULT_DT, DEFAULT_HORIZON, UNITS
 
 
-class JudgeError(ValueError):
-    """Base class of every judge error (a ValueError, so generic handlers catch it)."""
-
-
-class TrajectoryError(JudgeError):
-    """A trajectory or environment the judge cannot score: wrong shape or horizon, NaN."""
-
-
-@dataclass
+@dataclass(init=False)
 class JudgeConfig:
-    """Architecture and the trajectory format the judge was trained on (paper Table 2)."""
+    """The network (`arch` and its own fields, `net`) and the trajectory format the judge was
+    trained on (paper Table 2).
 
-    lstm_units: int = 100
-    lstm_layers: int = 2
-    fc_units: int = 102
-    fc_layers: int = 2
-    dropout: float = 0.3
-    #: dropout between the two LSTM layers (training only). The paper does not say where its
-    #: dropout 0.3 sits; applying it here too gained ~0.5 % validation accuracy (docs/judge.md)
-    lstm_dropout: float = 0.3
-    env_names: tuple[str, ...] = ("y_obj", "mu")
-    channels: tuple[str, ...] = CHANNELS
-    units: dict[str, str] = field(default_factory=lambda: dict(UNITS))
-    horizon: int = DEFAULT_HORIZON
-    dt: float = DEFAULT_DT
+    The architecture's fields are given as keywords and read as attributes
+    (`JudgeConfig(lstm_units=8).lstm_units`); `to_dict` writes them flat beside `arch`, and a
+    dict without `arch` (every judge file written before architectures had names) is an LSTM.
+    """
 
-    def __post_init__(self) -> None:
-        self.env_names = tuple(self.env_names)
-        self.channels = tuple(self.channels)
-        if self.lstm_units < 1 or self.lstm_layers < 1 or self.fc_units < 1 or self.fc_layers < 0:
-            raise JudgeError(f"layer sizes must be positive: {self}")
-        if not (0.0 <= self.dropout < 1.0 and 0.0 <= self.lstm_dropout < 1.0):
-            raise JudgeError(f"dropout {self.dropout} and lstm_dropout {self.lstm_dropout} must be in [0, 1)")
+    arch: str
+    #: the architecture's fields: an instance of get_arch(arch).Config
+    net: Any
+    env_names: tuple[str, ...]
+    channels: tuple[str, ...]
+    units: dict[str, str]
+    horizon: int
+    dt: float
+
+    def __init__(self, *, arch: str = DEFAULT_ARCH, net: Any = None, env_names: Sequence[str] = ("y_obj", "mu"),
+                 channels: Sequence[str] = CHANNELS, units: dict[str, str] | None = None,
+                 horizon: int = DEFAULT_HORIZON, dt: float = DEFAULT_DT, **net_fields: Any) -> None:
+        spec = get_arch(arch)
+        if isinstance(net, dict):
+            net_fields, net = {**net, **net_fields}, None
+        if net is None:
+            unknown = set(net_fields) - {f.name for f in fields(spec.Config)}
+            if unknown:
+                raise JudgeError(f"the {arch} architecture has no field {', '.join(sorted(unknown))} (its fields: "
+                                 f"{', '.join(f.name for f in fields(spec.Config))})")
+            net = spec.Config(**net_fields)
+        elif net_fields or not isinstance(net, spec.Config):
+            raise JudgeError(f"net must be a {spec.Config.__name__} (the {arch} architecture's fields), given alone")
+        self.arch, self.net = arch, net
+        self.env_names, self.channels = tuple(env_names), tuple(channels)
+        self.units = dict(UNITS) if units is None else dict(units)
+        self.horizon, self.dt = horizon, dt
         if self.horizon < 1 or not self.dt > 0:
             raise JudgeError(f"horizon {self.horizon} must be >= 1 and dt {self.dt} > 0")
         if len(set(self.env_names)) != len(self.env_names):
             raise JudgeError(f"env_names {self.env_names} repeat a name")
+
+    def __getattr__(self, name: str) -> Any:
+        """The architecture's fields as attributes (config.lstm_units)."""
+        net = self.__dict__.get("net")  # not self.net: copy and pickle call this before __dict__ is filled
+        if net is not None and name in net.__dataclass_fields__:
+            return getattr(net, name)
+        raise AttributeError(f"{type(self).__name__} ({self.__dict__.get('arch')}) has no attribute {name!r}")
+
+    @property
+    def spec(self) -> Arch:
+        """The architecture (judgeopt.judge.archs)."""
+        return get_arch(self.arch)
 
     @property
     def n_channels(self) -> int:
@@ -70,17 +90,20 @@ class JudgeConfig:
         return self.n_channels + self.n_env
 
     def to_dict(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["env_names"], d["channels"] = list(self.env_names), list(self.channels)
-        return d
+        """Flat: arch, the architecture's fields, then the trajectory format (what a judge file holds)."""
+        return {"arch": self.arch, **asdict(self.net), "env_names": list(self.env_names),
+                "channels": list(self.channels), "units": dict(self.units), "horizon": self.horizon, "dt": self.dt}
 
     @classmethod
     def from_dict(cls, d: dict[str, Any]) -> "JudgeConfig":
-        known = set(cls.__dataclass_fields__)
-        unknown = set(d) - known
+        d = dict(d)
+        arch = d.pop("arch", DEFAULT_ARCH)  # files from before architectures had names: the LSTM
+        own = {f.name for f in fields(get_arch(arch).Config)}
+        unknown = set(d) - own - set(SHARED_FIELDS)
         if unknown:
-            raise JudgeError(f"unknown judge config keys {sorted(unknown)}")
-        return cls(**d)
+            raise JudgeError(f"unknown judge config keys {sorted(unknown)} (the {arch} architecture's fields: "
+                             f"{', '.join(sorted(own))})")
+        return cls(arch=arch, **d)
 
 
 def select_env(env: np.ndarray, available: Sequence[str], wanted: Sequence[str]) -> np.ndarray:
@@ -111,15 +134,12 @@ class Judge(nn.Module):
         self.register_buffer("x_std", torch.ones(c))
         self.register_buffer("e_mean", torch.zeros(e))
         self.register_buffer("e_std", torch.ones(e))
-        self.lstm = nn.LSTM(config.input_size, config.lstm_units, num_layers=config.lstm_layers, batch_first=True,
-                            dropout=config.lstm_dropout if config.lstm_layers > 1 else 0.0)
-        layers: list[nn.Module] = []
-        width = config.lstm_units
-        for _ in range(config.fc_layers):
-            layers += [nn.Linear(width, config.fc_units), nn.ReLU(), nn.Dropout(config.dropout)]
-            width = config.fc_units
-        layers.append(nn.Linear(width, 1))
-        self.head = nn.Sequential(*layers)
+        # the architecture's layers, registered on the judge itself: a state_dict reads lstm.*, head.*
+        # as it did before architectures had modules of their own
+        for name, layer in config.spec.layers(config).items():
+            if hasattr(self, name):
+                raise TypeError(f"architecture {config.arch!r}: layer name {name!r} is taken by the Judge")
+            self.add_module(name, layer)
 
     # -- normalisation ------------------------------------------------------------------
     def fit_normalization(self, x: np.ndarray, e: np.ndarray) -> None:
@@ -139,14 +159,17 @@ class Judge(nn.Module):
 
     # -- network ------------------------------------------------------------------------
     def features(self, x: torch.Tensor, e: torch.Tensor) -> torch.Tensor:
-        """The LSTM input: normalised [x_k, e] at every step, (B, N+1, C+E)."""
+        """The network's input: normalised [x_k, e] at every step, (B, N+1, C+E)."""
         xn = (x - self.x_mean) / self.x_std
         en = ((e - self.e_mean) / self.e_std).unsqueeze(1).expand(-1, x.shape[1], -1)
         return torch.cat([xn, en], dim=-1)
 
+    @property
+    def arch(self) -> Arch:
+        return self.config.spec
+
     def forward(self, x: torch.Tensor, e: torch.Tensor) -> torch.Tensor:
-        out, _ = self.lstm(self.features(x, e))
-        return self.head(out[:, -1]).squeeze(-1)
+        return self.config.spec.logit(self, self.features(x, e))
 
     def logit(self, x: torch.Tensor, e: torch.Tensor) -> torch.Tensor:
         return self(x, e)
@@ -196,76 +219,3 @@ class Judge(nn.Module):
     def predict_proba(self, x: np.ndarray, e: np.ndarray) -> np.ndarray:
         return 1.0 / (1.0 + np.exp(-self.predict_logit(x, e)))
 
-
-class ConcatLSTMCell(nn.Module):
-    """One LSTM layer step with the gates from ONE Linear over cat([x, h]).
-
-    Why: l4casadi's TorchScript export breaks on nn.LSTM's mkldnn kernel and on a cell with
-    two Linear layers after torch.jit.freeze (shared/notes/dependencies.md); this form
-    exports cleanly. Gate order i, f, g, o as in nn.LSTM.
-    """
-
-    def __init__(self, input_size: int, hidden: int) -> None:
-        super().__init__()
-        self.hidden = hidden
-        self.lin = nn.Linear(input_size + hidden, 4 * hidden)
-
-    def forward(self, x: torch.Tensor, h: torch.Tensor, c: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        z = self.lin(torch.cat([x, h], dim=-1))
-        H = self.hidden
-        i, f, g, o = torch.sigmoid(z[..., :H]), torch.sigmoid(z[..., H:2 * H]), torch.tanh(z[..., 2 * H:3 * H]), \
-            torch.sigmoid(z[..., 3 * H:])
-        c = f * c + i * g
-        return o * torch.tanh(c), c
-
-
-def lstm_layer_weights(lstm: nn.LSTM) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per layer (W, b) with W = [W_ih | W_hh] (4H x (in + H)) and b = b_ih + b_hh, float64."""
-    out = []
-    for k in range(lstm.num_layers):
-        w_ih, w_hh = getattr(lstm, f"weight_ih_l{k}"), getattr(lstm, f"weight_hh_l{k}")
-        b_ih, b_hh = getattr(lstm, f"bias_ih_l{k}"), getattr(lstm, f"bias_hh_l{k}")
-        W = torch.cat([w_ih, w_hh], dim=1).detach().double().numpy()
-        b = (b_ih + b_hh).detach().double().numpy()
-        out.append((W, b))
-    return out
-
-
-class UnrolledJudge(nn.Module):
-    """The same judge as one flat input -> logit, the LSTM unrolled with ConcatLSTMCell.
-
-    Input: a (1, (N+1)*C + E) row [x_0, ..., x_N (row-major), e] of raw values; output (1, 2)
-    [logit, probability]. This is the form l4casadi (one matrix in, one out) needs.
-    """
-
-    def __init__(self, judge: Judge) -> None:
-        super().__init__()
-        cfg = judge.config
-        self.n_steps, self.n_ch, self.n_env = cfg.horizon + 1, cfg.n_channels, cfg.n_env
-        for name in ("x_mean", "x_std", "e_mean", "e_std"):
-            self.register_buffer(name, getattr(judge, name).detach().clone())
-        self.cells = nn.ModuleList()
-        for k, (W, b) in enumerate(lstm_layer_weights(judge.lstm)):
-            cell = ConcatLSTMCell(W.shape[1] - cfg.lstm_units, cfg.lstm_units)
-            with torch.no_grad():
-                cell.lin.weight.copy_(torch.as_tensor(W))
-                cell.lin.bias.copy_(torch.as_tensor(b))
-            self.cells.append(cell)
-        self.head = copy.deepcopy(judge.head)  # a copy: .double() here must not touch the judge
-        self.hidden = cfg.lstm_units
-        self.to(next(judge.parameters()).dtype)
-
-    def forward(self, inp: torch.Tensor) -> torch.Tensor:
-        n = self.n_steps * self.n_ch
-        x = (inp[:, :n].reshape(-1, self.n_steps, self.n_ch) - self.x_mean) / self.x_std
-        e = (inp[:, n:n + self.n_env] - self.e_mean) / self.e_std
-        B = inp.shape[0]
-        hs = [torch.zeros(B, self.hidden, dtype=inp.dtype) for _ in self.cells]
-        cs = [torch.zeros(B, self.hidden, dtype=inp.dtype) for _ in self.cells]
-        for k in range(self.n_steps):
-            u = torch.cat([x[:, k], e], dim=-1)
-            for j, cell in enumerate(self.cells):
-                hs[j], cs[j] = cell(u, hs[j], cs[j])
-                u = hs[j]
-        logit = self.head(u)
-        return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
