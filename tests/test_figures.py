@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 
 from judgeopt.evaluate.report import plot_reliability, zoomed_range
 from judgeopt.files import resolve, save_figure
-from judgeopt.planners.export import plot_plans
+from judgeopt.planners.plots import plot_plans
 from judgeopt.planners.problem import load_problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.tasks.scoop.tables import compare

@@ -9,40 +9,37 @@ from typing import Any
 
 from judgeopt.cli.common import OVERWRITE, CLIError, out_option
 from judgeopt.files import refuse_overwrite
-
-FORMAT_CHOICES = ("csv", "mcap")
+from judgeopt.trajectory import PlanError
 
 
 def export_format(out: str | Path, fmt: str | None = None) -> str:
-    """The format asked for, else the one `out`'s suffix names (.csv, .mcap)."""
-    from judgeopt.planners.export import FORMATS
+    """The format asked for, else the one `out`'s suffix names (judgeopt.formats.exporters)."""
+    from judgeopt.formats.exporters import exporter_for
 
-    found = fmt or FORMATS.get(Path(out).suffix.lower())
-    if found is None:
-        raise CLIError(f"{out}: cannot tell the format from the suffix {Path(out).suffix!r}: name the file "
-                       f"{' or '.join(FORMATS)}, or give --format")
-    return found
+    try:
+        return exporter_for(out, fmt).name
+    except PlanError as exc:
+        raise CLIError(str(exc)) from None
 
 
 def export_record_to(rec: dict[str, Any], out: str | Path, fmt: str | None = None, step: float = 1e-3,
                      source: str | Path = "plan", start_ns: int = 0) -> Path:
     """One plan record to `out` (format from `fmt` or the suffix)."""
-    from judgeopt.planners.export import export_record
+    from judgeopt.formats.exporters import export_record
 
-    return export_record(rec, out, export_format(out, fmt), step=step, path=source, start_ns=start_ns)
+    return export_record(rec, out, export_format(out, fmt), step=step, source=source, start_ns=start_ns)
 
 
 def cmd_export(args: argparse.Namespace) -> int:
-    from judgeopt.planners.export import read_plan_record
+    from judgeopt.formats.plan import read_plan_record
 
     fmt = export_format(args.out, args.format)
     refuse_overwrite([args.out], args.overwrite)
     rec = read_plan_record(args.plan)
     path = export_record_to(rec, args.out, fmt, args.step, args.plan, int(round(args.start_time * 1e9)))
-    what = ("importer columns: t, " + ", ".join(rec["plan"].get("channels", [])) + ", the environment; add a "
-            "label column to a recording of its execution") if fmt == "csv" else \
-        "ROS 2: /judgeopt/pose, /judgeopt/twist, /judgeopt/wrench, /judgeopt/plan_info"
-    print(f"wrote {path} ({fmt}, every {args.step * 1e3:g} ms; {what})")
+    from judgeopt.formats.exporters import EXPORTERS
+
+    print(f"wrote {path} ({fmt}, every {args.step * 1e3:g} ms; {EXPORTERS[fmt].holds})")
     return 0
 
 
@@ -58,7 +55,10 @@ def add_export_commands(sub: argparse._SubParsersAction) -> None:
                        "it with `ros2 bag play -s mcap FILE`.",
                        parents=[out_option("FILE", "file to write (.csv or .mcap)", required=True), OVERWRITE])
     e.add_argument("plan", help="plan JSON file (judgeopt solve --save-json)")
-    e.add_argument("--format", choices=FORMAT_CHOICES, help="csv or mcap (default: from the --out suffix)")
+    from judgeopt.formats.exporters import EXPORTERS
+
+    e.add_argument("--format", choices=tuple(EXPORTERS), help=f"{' or '.join(EXPORTERS)} (default: from the --out "
+                   "suffix)")
     e.add_argument("--step", type=float, default=1e-3, metavar="S",
                    help="sample period of the written commands in s (default 0.001: the controller's 1 kHz)")
     e.add_argument("--start-time", type=float, default=0.0, metavar="S",

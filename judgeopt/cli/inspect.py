@@ -50,7 +50,7 @@ def kind_of(path: str | Path) -> tuple[str, Path]:
     fmt = _format_of(js)
     kinds = {"judgeopt-judge": "judge", "judgeopt-generator": "generator", "judgeopt-judge-ensemble": "ensemble",
              "judgeopt-calibration": "calibration", "judgeopt-trust-region": "trust region"}
-    from judgeopt.planners.export import PLAN_FORMAT
+    from judgeopt.formats.plan import PLAN_FORMAT
 
     kinds[PLAN_FORMAT] = "plan"
     if fmt not in kinds:
@@ -111,7 +111,7 @@ def _trust_region(p: Path) -> dict[str, Any]:
 
 
 def _plan(p: Path) -> dict[str, Any]:
-    from judgeopt.planners.export import read_plan_json, read_plan_record
+    from judgeopt.formats.plan import read_plan_json, read_plan_record
 
     rec = read_plan_record(p)
     plan = read_plan_json(p)
@@ -123,7 +123,7 @@ def _plan(p: Path) -> dict[str, Any]:
 
 
 def _ros_bag(p: Path) -> dict[str, Any]:
-    from judgeopt.planners.ros import summarize_mcap
+    from judgeopt.formats.mcap import summarize_mcap
 
     return {"path": str(p), **summarize_mcap(p)}
 

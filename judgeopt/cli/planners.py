@@ -200,27 +200,27 @@ def cmd_solve(args: argparse.Namespace) -> int:
                            ranges=ranges_given(args, problem), range_case=args.range_case, suggest=args.suggest)
     results, suggestions, unlikely = report.results, report.suggestions, report.unlikely
     files = []
+    prov = None
+    if args.save_json or args.export:  # once per run: every file written says the same
+        from judgeopt.formats.plan import plan_provenance, plan_record, write_record
+
+        prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"], planners.generator_path,
+                               command_line())
     for r in results:
         if r.plan is not None and args.out:
-            from judgeopt.planners.export import write_csv
+            from judgeopt.formats.table_csv import write_plan_csv
 
-            files.append(write_csv(r.plan, _with_method(args.out, r.method, several), env=r.env))
-        if r.plan is not None and args.save_json:
-            from judgeopt.planners.export import plan_provenance, write_json
-
-            prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"],
-                                   planners.generator_path, command_line())
-            files.append(write_json(r, problem, _with_method(args.save_json, r.method, several), prov))
-        if r.plan is not None and args.export:
+            files.append(write_plan_csv(r.plan, _with_method(args.out, r.method, several), env=r.env))
+        rec = plan_record(r, problem, prov) if r.plan is not None and prov is not None else None
+        if rec is not None and args.save_json:
+            files.append(write_record(rec, _with_method(args.save_json, r.method, several)))
+        if rec is not None and args.export:
             from judgeopt.cli.export import export_record_to
-            from judgeopt.planners.export import plan_provenance, plan_record
 
-            rec = plan_record(r, problem, plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"],
-                                                          planners.generator_path, command_line()))
             files.append(export_record_to(rec, _with_method(args.export, r.method, several)))
     if args.plot and any(r.plan is not None for r in results):
         from judgeopt.files import save_figure
-        from judgeopt.planners.export import plot_plans
+        from judgeopt.planners.plots import plot_plans
 
         files.append(save_figure(plot_plans(problem, results), args.plot))
     infeasible, verdict = report.infeasible, report.verdict
@@ -443,7 +443,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
     s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "
                    "provenance (models' sha256, git commit, command) as one JSON file (one per method: "
-                   "NAME_METHOD.json); read back with judgeopt.planners.export.read_plan_json")
+                   "NAME_METHOD.json); read back with judgeopt.formats.plan.read_plan_json")
     s.add_argument("--export", metavar="FILE", help="write the plan for a robot (one per method: NAME_METHOD.EXT): "
                    ".csv with the importer's columns, or .mcap with ROS 2 messages along the problem's [frame] "
                    "(pip install 'judgeopt[ros]'); as `judgeopt export` does from a --save-json file")

@@ -35,6 +35,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from judgeopt.formats.header import check_header, header
 from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.trajectory import CHANNELS, UNITS
 
@@ -150,7 +151,7 @@ def save(ds: Dataset, path: str | Path) -> Path:
                 h.create_dataset("randomized", data=ds.randomized.astype(np.float64))
                 h.attrs["randomized_names"] = json.dumps(list(ds.randomized_names))
             a = h.attrs
-            a["format"], a["format_version"] = FORMAT, VERSION
+            a.update(header(FORMAT, VERSION))
             a["dt"], a["horizon"] = float(ds.dt), int(ds.horizon)
             a["task"] = ds.task
             a["channels"] = json.dumps(list(ds.channels))
@@ -179,10 +180,7 @@ def load(path: str | Path) -> Dataset:
         raise DatasetError(f"{path}: not a readable HDF5 file ({exc})") from exc
     with h:
         a = dict(h.attrs)
-        if a.get("format") != FORMAT:
-            raise DatasetError(f"{path}: not a judgeopt demonstration file (format attribute is {a.get('format')!r})")
-        if int(a.get("format_version", -1)) > VERSION:
-            raise DatasetError(f"{path}: format version {a['format_version']} is newer than this judgeopt reads ({VERSION})")
+        check_header(a, str(path), FORMAT, VERSION, DatasetError, "demonstration file")
         missing = [k for k in ("commands", "responses", "labels", "env") if k not in h]
         if missing:
             raise DatasetError(f"{path}: missing arrays {missing}")

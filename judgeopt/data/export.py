@@ -1,4 +1,4 @@
-"""A dataset out as one CSV table in the importer's format, so it can be read by any tool and
+"""A dataset out as one CSV table in the importer's format (judgeopt.formats.table_csv), so it can be read by any tool and
 imported back unchanged (`judgeopt export-demos`, then `judgeopt import-demos`).
 
 Columns: demo_id, t (s, k·dt from 0), every channel (the scoop's y [m], ydot [m/s], f [N]),
@@ -9,15 +9,13 @@ responses, so it makes the round trip whole, while a simulated one loses its com
 
 from __future__ import annotations
 
-import csv
-import io
 import json
 from pathlib import Path
 
 import numpy as np
 
 from judgeopt.data.dataset import Dataset
-from judgeopt.files import atomic_write
+from judgeopt.formats.table_csv import table_text, write_table
 
 
 def demo_ids(ds: Dataset) -> list[str]:
@@ -33,21 +31,20 @@ def demo_ids(ds: Dataset) -> list[str]:
     return [f"demo{int(i)}" for i in ds.index]
 
 
-def demos_csv(ds: Dataset) -> str:
-    """The dataset as CSV text (numbers written exactly: repr of each float)."""
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["demo_id", "t", *ds.channels, "label", *ds.env_names])
+def _rows(ds: Dataset):
     t = np.arange(ds.horizon + 1) * ds.dt
     for name, x, label, env in zip(demo_ids(ds), ds.responses, ds.labels, ds.env):
         outcome = "success" if label else "failure"
-        env_cells = [repr(float(v)) for v in env]
+        env_cells = [float(v) for v in env]
         for k in range(len(t)):
-            w.writerow([name, repr(float(t[k])), *(repr(float(v)) for v in x[k]), outcome, *env_cells])
-    return buf.getvalue()
+            yield [name, float(t[k]), *(float(v) for v in x[k]), outcome, *env_cells]
+
+
+def demos_csv(ds: Dataset) -> str:
+    """The dataset as CSV text (numbers written exactly: repr of each float)."""
+    return table_text(["demo_id", "t", *ds.channels, "label", *ds.env_names], _rows(ds))
 
 
 def export_csv(ds: Dataset, path: str | Path) -> Path:
     """Write the CSV atomically (a reader sees the old file or the whole new one)."""
-    atomic_write(path, demos_csv(ds))
-    return Path(path)
+    return write_table(path, ["demo_id", "t", *ds.channels, "label", *ds.env_names], _rows(ds))

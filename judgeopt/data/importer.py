@@ -100,7 +100,6 @@ what the tool did. `judgeopt.data.export` writes a dataset back as CSV in the fo
 
 from __future__ import annotations
 
-import csv
 import json
 import re
 from pathlib import Path
@@ -109,6 +108,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from judgeopt.data.dataset import Dataset
+from judgeopt.formats.table_csv import TableError, read_table
 from judgeopt.data.labels import FILE_COLUMNS, LABEL_COLUMNS
 from judgeopt.data.lerobot import LEROBOT_LABEL_HINT, is_lerobot, lerobot_demos
 from judgeopt.data.ros2 import bag_demos, is_bag
@@ -130,13 +130,9 @@ HDF5_LABEL_HINT = ("give each demo group a 'success' attribute, map a success fl
 # -- CSV --------------------------------------------------------------------------------------------
 def _read(path: Path) -> tuple[list[str], list[list[str]]]:
     try:
-        with open(path, newline="") as fh:
-            rows = list(csv.reader(fh))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ImportError_(f"{path}: cannot read ({exc})") from None
-    if not rows:
-        raise ImportError_(f"{path}: empty file")
-    return [h.strip() for h in rows[0]], rows[1:]
+        return read_table(path)
+    except TableError as exc:
+        raise ImportError_(str(exc)) from None
 
 
 def _csv_demos(path: Path, spec: ImportSpec, table: tuple[list[str], list[tuple[str, list[str]]]] | None = None

@@ -22,6 +22,7 @@ from typing import Any, Iterable
 import numpy as np
 
 from judgeopt.files import atomic_write
+from judgeopt.formats.header import check_header, header
 from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 
 FORMAT, VERSION = "judgeopt-calibration", 1
@@ -161,7 +162,7 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
 
 def save_calibration(path: str | Path, calibrators: dict[str, Calibrator]) -> Path:
     path = Path(path)
-    doc = {"format": FORMAT, "version": VERSION, "settings": {k: asdict(c) for k, c in sorted(calibrators.items())}}
+    doc = {**header(FORMAT, VERSION), "settings": {k: asdict(c) for k, c in sorted(calibrators.items())}}
     atomic_write(path, (json.dumps(doc, indent=1) + "\n").encode())
     return path
 
@@ -173,9 +174,7 @@ def load_calibration(path: str | Path) -> dict[str, Calibrator]:
                                "out/evaluate/TABLE ... --out FILE`)")
     try:
         doc = json.loads(path.read_text())
-        if doc.get("format") != FORMAT or doc.get("version") != VERSION:
-            raise CalibrationError(f"{path}: not a {FORMAT} v{VERSION} file (format {doc.get('format')!r}, "
-                                   f"version {doc.get('version')!r})")
+        check_header(doc, str(path), FORMAT, VERSION, CalibrationError, "calibration file")
         out = {k: Calibrator(**v) for k, v in doc["settings"].items()}
     except (json.JSONDecodeError, KeyError, TypeError, AttributeError) as exc:
         raise CalibrationError(f"{path}: malformed calibration file ({exc}); refit it with `judgeopt calibrate`") from None

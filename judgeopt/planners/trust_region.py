@@ -22,9 +22,11 @@ from pathlib import Path
 import numpy as np
 
 from judgeopt.files import atomic_write
+from judgeopt.formats.header import check_header, header
 from judgeopt.planners.problem import ProblemError
 
 FORMAT = "judgeopt-trust-region"
+VERSION = 1
 
 
 class TrustRegionError(ProblemError):
@@ -76,7 +78,7 @@ def fit_trust_region(commands: np.ndarray, components: int = 8) -> TrustRegion:
 
 def save_trust_region(tr: TrustRegion, path: str | Path, meta: dict) -> Path:
     path = Path(path).with_suffix(".json")
-    record = {"format": FORMAT, "format_version": 1, **meta, "mean": tr.mean.tolist(), "scale": tr.scale.tolist(),
+    record = {**header(FORMAT, VERSION), **meta, "mean": tr.mean.tolist(), "scale": tr.scale.tolist(),
               "components": tr.components.tolist(), "variances": tr.variances.tolist(), "sigma2": tr.sigma2,
               "quantiles": tr.quantiles}
     atomic_write(path, (json.dumps(record) + "\n").encode())
@@ -89,8 +91,7 @@ def load_trust_region(path: str | Path, features: int | None = None) -> TrustReg
         raise TrustRegionError(f"{path}: no such trust-region model (fit one with `judgeopt fit-trust-region`)")
     try:
         r = json.loads(path.read_text())
-        if r.get("format") != FORMAT:
-            raise TrustRegionError(f"{path}: not a judgeopt trust-region model (format {r.get('format')!r})")
+        check_header(r, str(path), FORMAT, VERSION, TrustRegionError, "trust-region model")
         tr = TrustRegion(np.array(r["mean"]), np.array(r["scale"]), np.array(r["components"]),
                          np.array(r["variances"]), float(r["sigma2"]), dict(r["quantiles"]))
     except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:

@@ -103,7 +103,7 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
 def _record_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None, envs: np.ndarray,
                   first: int, limits: np.ndarray | None, provenance: dict[str, Any]) -> list[dict[str, Any]]:
     """Plan without replaying: each plan's JSON record (under its own limits), for a robot."""
-    from judgeopt.planners.export import plan_record
+    from judgeopt.formats.plan import plan_record
 
     return [{"env_index": first + i, "method": r.method, "limits": lim,
              "record": plan_record(r, problem.with_overrides(**lim), provenance)}
@@ -146,7 +146,7 @@ def _write_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, genera
                  n_jobs: int, scheduler: str | None, progress: bool) -> Path:
     """Round k's plans for a robot (judgeopt.refine.robot): the same environments and limits the
     simulator path would plan for, planned by the same models, written instead of replayed."""
-    from judgeopt.planners.export import plan_provenance
+    from judgeopt.formats.plan import plan_provenance
     from judgeopt.refine.robot import write_plans
 
     envs, limits = _round_envs(problem, cfg.seed, k, cfg.n), _round_limits(cfg, k)

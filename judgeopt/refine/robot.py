@@ -3,7 +3,7 @@ labelled executions back in (`judgeopt refine --plans-only`, then `--outcomes DI
 
 OUT/round_k/plans/ holds, per plan id (`r<k>_<environment index>_<method>`):
 
-    <id>.json       the plan record (judgeopt.planners.export: limits, environment, frame, provenance)
+    <id>.json       the plan record (judgeopt.formats.plan: limits, environment, frame, provenance)
     <id>.csv        its commands at 1 kHz in the importer's columns (t, channels, environment)
     manifest.json   format "judgeopt-refine-plans": round, judge, generator, outcomes (what to record)
                     and plans: [{id, method, env_index, environment, limits, json, csv,
@@ -39,7 +39,8 @@ def plan_id(k: int, env_index: int, method: str) -> str:
 def write_plans(folder: Path, rows: list[dict[str, Any]], k: int, problem: Problem, models: dict[str, Any]) -> Path:
     """Each row's plan as JSON and CSV, then the manifest (last: its presence means the round's
     plans are complete)."""
-    from judgeopt.planners.export import export_record, write_record
+    from judgeopt.formats.exporters import export_record
+    from judgeopt.formats.plan import write_record
 
     entries = []
     for r in rows:
@@ -71,7 +72,7 @@ def read_outcomes(manifest_path: Path, outcomes: str | Path, problem: Problem) -
     predicted, violation), and one line per plan left out (no recording, or a bad one: file,
     row, field). Raises ProblemError when no recording is usable."""
     from judgeopt.data.importer import ImportSpec, import_demos
-    from judgeopt.planners.export import PlanFileError, plan_from_record, read_plan_record
+    from judgeopt.formats.plan import PlanFileError, plan_from_record, read_plan_record
 
     outcomes = Path(outcomes)
     if not outcomes.is_dir():

@@ -7,7 +7,7 @@ import pytest
 
 from judgeopt.cli import main
 from judgeopt.files import resolve
-from judgeopt.planners.export import plan_provenance, plan_record, write_record
+from judgeopt.formats.plan import plan_provenance, plan_record, write_record
 from judgeopt.planners.problem import load_problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.tasks import get_task

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from judgeopt.files import resolve
-from judgeopt.planners.export import PlanFileError, export_record, plan_provenance, plan_record, record_frame
+from judgeopt.formats.plan import PlanFileError, plan_provenance, plan_record, record_frame
+from judgeopt.formats.exporters import export_record
 from judgeopt.planners.frame import TaskFrame
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.result import PlanResult

@@ -1,6 +1,5 @@
-"""Plans out of judgeopt: 1 kHz CSV for a real controller, a self-contained JSON record with
-provenance (so a run on a real arm can be traced back to the models, code and command that
-planned it, and replayed), and the Figs. 15-18-style plot (a matplotlib Figure).
+"""The plan JSON file: a self-contained record of one planner's result with provenance, so a run
+on a real arm can be traced back to the models, code and command that planned it, and replayed.
 
 Plan JSON (format "judgeopt-plan", version 2; `write_json`, read back by `read_plan_json`, which
 also reads version 1, whose columns were always q, qdot, f):
@@ -33,15 +32,11 @@ also reads version 1, whose columns were always q, qdot, f):
 
 Non-finite numbers are written as null (strict JSON).
 
-Out to a robot (`export_record`, `judgeopt export`): CSV with the importer's columns
-(judgeopt.data.importer: t, each channel by name, then the environment the plan was made for;
-SI units s, m, m/s, N), so a recording of the executed plan in the same columns plus `label`
-re-imports unchanged; or MCAP with ROS 2 messages along the task frame (judgeopt.planners.ros).
+Out to a robot from a record: judgeopt.formats.exporters.
 """
 
 from __future__ import annotations
 
-import io
 import json
 import math
 import platform
@@ -49,18 +44,16 @@ import subprocess
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Sequence
+from typing import Any
 
 import numpy as np
 
 from judgeopt.files import REPO, atomic_write
+from judgeopt.formats.header import check_header, header
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.planners.frame import TaskFrame
 from judgeopt.trajectory import Plan, PlanError
-
-if TYPE_CHECKING:
-    from matplotlib.figure import Figure
 
 PLAN_FORMAT = "judgeopt-plan"
 PLAN_VERSION = 2  # 2: the plan's columns named by the task's channels (1: always q, qdot, f)
@@ -71,25 +64,6 @@ V1_COLUMNS = ("q", "qdot", "f")  # a version-1 file's columns: the scoop's y, yd
 
 class PlanFileError(PlanError):
     """A plan JSON file that is missing, corrupt, of another format or lacking fields."""
-
-
-#: what `export_record` writes, by file suffix
-FORMATS = {".csv": "csv", ".mcap": "mcap"}
-
-
-def write_csv(plan: Plan, path: str | Path, step: float = 1e-3, env: dict[str, float] | None = None) -> Path:
-    """Commands at `step` (1 ms): Hermite-interpolated position/velocity, linear force; the
-    same interpolation the simulated controller applies. Columns are the importer's (t, the
-    channels by name, SI units; then `env`'s values, constant), so a recording of the executed
-    plan with a `label` column added re-imports unchanged. Written atomically."""
-    t, x = plan.resample(step)
-    env = env or {}
-    header = ",".join(["t", *(c.name for c in plan.channels), *env])
-    table = np.column_stack([t, x, np.tile([float(v) for v in env.values()], (len(t), 1))])
-    buf = io.StringIO()
-    np.savetxt(buf, table, delimiter=",", fmt="%.9g", header=header, comments="")
-    atomic_write(path, buf.getvalue())
-    return Path(path)
 
 
 def _git(*args: str) -> str | None:
@@ -161,7 +135,7 @@ def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any]
     sim = {k.removeprefix("sim_"): v for k, v in result.info.items() if k.startswith("sim_")}
     other = {k: v for k, v in result.info.items() if not k.startswith("sim_")}
     record = {
-        "format": PLAN_FORMAT, "format_version": PLAN_VERSION,
+        **header(PLAN_FORMAT, PLAN_VERSION),
         "method": result.method, "status": result.status, "message": result.message,
         "solve_time_s": result.solve_time_s, "iterations": result.iterations, "solver_info": other,
         "environment": result.env,
@@ -216,18 +190,10 @@ def read_plan_record(path: str | Path) -> dict[str, Any]:
     except json.JSONDecodeError as exc:
         raise PlanFileError(f"{path}: corrupt plan file, not valid JSON ({exc.msg} at line {exc.lineno}, "
                             f"column {exc.colno}; truncated or edited?)") from None
-    if not isinstance(rec, dict) or rec.get("format") != PLAN_FORMAT:
-        got = rec.get("format") if isinstance(rec, dict) else type(rec).__name__
-        raise PlanFileError(f"{path}: not a judgeopt plan file (format is {got!r}, expected {PLAN_FORMAT!r})")
+    version = check_header(rec, str(path), PLAN_FORMAT, PLAN_VERSION, PlanFileError, "plan file")
     missing = [k for k in REQUIRED_FIELDS if k not in rec]
     if missing:
         raise PlanFileError(f"{path}: missing field(s) {missing}")
-    version = rec["format_version"]
-    if not isinstance(version, int) or isinstance(version, bool):
-        raise PlanFileError(f"{path}: format_version {version!r} is not an integer")
-    if version > PLAN_VERSION:
-        raise PlanFileError(f"{path}: plan format version {version} is newer than this judgeopt reads "
-                            f"({PLAN_VERSION}); update judgeopt")
     plan = rec["plan"]
     if not isinstance(plan, dict):
         raise PlanFileError(f"{path}: field 'plan' is {type(plan).__name__}, not an object")
@@ -285,78 +251,3 @@ def record_frame(rec: dict[str, Any], path: str | Path) -> TaskFrame:
         return task_frame(rec.get("frame"), get_task(rec["problem"].get("task", DEFAULT_TASK)))
     except (FrameError, TaskError) as exc:
         raise PlanFileError(f"{path}: field 'frame': {exc}") from None
-
-
-def export_record(rec: dict[str, Any], out: str | Path, fmt: str, step: float = 1e-3,
-                  path: str | Path = "plan", start_ns: int = 0) -> Path:
-    """A plan record out to a robot as `fmt` ("csv" or "mcap", `FORMATS`) at `step` (the
-    controller's 1 ms); `path` is where the record came from, for messages."""
-    if fmt not in FORMATS.values():
-        raise PlanError(f"export format {fmt!r} is not one of {', '.join(FORMATS.values())}")
-    plan = plan_from_record(rec, path)
-    if not (isinstance(step, (int, float)) and 0 < step <= plan.dt):
-        raise PlanError(f"export step {step!r} s must be positive and at most the plan's period {plan.dt:g} s")
-    if fmt == "csv":
-        return write_csv(plan, out, step, env=rec["environment"])
-    from judgeopt.planners.ros import write_mcap
-
-    info = {k: rec.get(k) for k in ("method", "environment", "predicted_success", "success_probability",
-                                    "probability_source", "verdict", "simulated_success", "provenance")}
-    info["problem"] = {k: rec["problem"].get(k) for k in ("name", "task", "source")}
-    return write_mcap(plan, record_frame(rec, path), out, info, step, start_ns)
-
-
-def measured(result: PlanResult) -> np.ndarray | None:
-    """The replay's response on the plan's channels, or None (not replayed, or refused)."""
-    r = result.response
-    return r if r is not None and result.plan is not None and r.shape == result.plan.values.shape else None
-
-
-def plot_plans(problem: Problem, results: Sequence[PlanResult], title: str = "") -> Figure:
-    """q, q̇ and f against time, the allowed region unshaded and the forbidden one grey
-    (the paper's Figs. 15 and 16), one line per method; where a plan was replayed, what the
-    controller measured beside what it was commanded (Figs. 17 and 18)."""
-    from matplotlib.figure import Figure
-
-    bounds = {"position": ("q_min", "q_max"), "velocity": ("qdot_min", "qdot_max"), "force": ("f_min", "f_max")}
-    rows = []
-    for c in problem.channel_spec:  # one panel per channel, its limits shaded
-        same_kind = [d.name for d in problem.channel_spec if d.kind == c.kind]
-        i = [d.name for d in problem.channel_spec if d.kind == "position"].index(c.of) if c.kind == "velocity" \
-            else same_kind.index(c.name)
-        lo, hi = (float(problem.vec(b)[i]) for b in bounds[c.kind])
-        rows.append((c, f"{c.kind} {c.name} [{c.unit}]", lo, hi, i))
-    fig = Figure(figsize=(6.4, 2.4 * len(rows) + 0.8), layout="constrained")
-    axes = fig.subplots(len(rows), 1, sharex=True, squeeze=False)[:, 0]
-    T = problem.horizon_time
-    for j, (ax, (channel, label, lo, hi, axis)) in enumerate(zip(axes, rows)):  # j: the channel's column
-        values = [getattr(r.plan, channel.name) for r in results if r.plan is not None]
-        values += [m[:, j] for m in map(measured, results) if m is not None]
-        span = max(hi - lo, 1e-9)
-        top = max([hi + 0.15 * span] + [float(v.max()) for v in values])
-        bottom = min([lo - 0.15 * span] + [float(v.min()) for v in values])
-        ax.axhspan(hi, top, color="0.85", lw=0)
-        ax.axhspan(bottom, lo, color="0.85", lw=0)
-        ax.set_ylim(bottom, top)
-        for r in results:
-            if r.plan is None:
-                continue
-            v = getattr(r.plan, channel.name)
-            p = (f", p = {r.success_probability:.2f} ({r.probability_source}), {r.verdict}"
-                 if r.success_probability is not None else "")
-            m = measured(r)
-            line, = ax.plot(r.plan.t, v, marker=".", ms=3, label=f"{r.method}{p}" + (": command" if m is not None else ""))
-            if m is not None:
-                ax.plot(r.plan.t, m[:, j], color=line.get_color(), lw=2.2, alpha=0.45,
-                        label=f"{r.method}: simulated response ({'success' if r.simulated_success else 'failure'})")
-        end = problem.terminal_positions(results[0].env)[axis] if results and channel.kind == "position" else np.nan
-        if not np.isnan(end):
-            ax.axhline(end, color="k", ls=":", lw=1, label="q_end")
-        ax.set_ylabel(label)
-        ax.grid(alpha=0.3)
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=2, fontsize=7)
-    axes[-1].set_xlabel("time [s]")
-    axes[-1].set_xlim(0, T)
-    env = ", ".join(f"{k} = {v:.3g}" for k, v in results[0].env.items()) if results else ""
-    fig.suptitle(title or f"{problem.name}: q̇_max = {problem.qdot_max} m/s ({env})", fontsize=10)
-    return fig
