@@ -3,7 +3,7 @@ inspect (Foxglove, `ros2 bag info`), written with the pure-Python `rosbags` libr
 extra: pip install 'judgeopt[ros]'), so no ROS installation is needed to write one.
 
 Per sample of the plan resampled to the controller's step (1 ms, as the CSV), in the task frame's
-parent frame (judgeopt.planners.frame; header.frame_id), stamped with the plan's time from
+parent frame (judgeopt.formats.frame; header.frame_id), stamped with the plan's time from
 `start_ns`:
 
     /judgeopt/pose       geometry_msgs/msg/PoseStamped    commanded tool position, the frame's orientation
@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from judgeopt.planners.frame import TaskFrame
+from judgeopt.formats.frame import TaskFrame
 from judgeopt.trajectory import Plan, PlanError
 
 TOPICS = {"pose": "/judgeopt/pose", "twist": "/judgeopt/twist", "wrench": "/judgeopt/wrench",

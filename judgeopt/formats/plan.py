@@ -26,7 +26,7 @@ also reads version 1, whose columns were always q, qdot, f):
                                 role} or null, judgeopt_version, git_commit, git_dirty (null
                                 outside a git checkout), command, created (UTC, ISO 8601),
                                 python, platform
-    frame                       the task frame (judgeopt.planners.frame: frame_id, origin,
+    frame                       the task frame (judgeopt.formats.frame: frame_id, origin,
                                 orientation, axes), defaults filled in; absent in files written
                                 before it, which `record_frame` reads as the task's default frame
 
@@ -50,9 +50,7 @@ import numpy as np
 
 from judgeopt.files import REPO, atomic_write
 from judgeopt.formats.header import check_header, header
-from judgeopt.planners.problem import Problem
-from judgeopt.planners.result import PlanResult
-from judgeopt.planners.frame import TaskFrame
+from judgeopt.formats.frame import TaskFrame
 from judgeopt.trajectory import Plan, PlanError
 
 PLAN_FORMAT = "judgeopt-plan"
@@ -80,7 +78,7 @@ def plan_provenance(judge_path: str | Path | None, judge_sha256: str | None,
     Computed once per run; never fails for lack of git or of a generator."""
     from judgeopt import __version__
     from judgeopt.files import sha256_file
-    from judgeopt.judge.store import model_paths
+    from judgeopt.formats.model_files import model_paths
 
     generator = None
     if generator_path is not None:
@@ -120,8 +118,9 @@ def _clean(x: Any) -> Any:
     return str(x)
 
 
-def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any], step: float = 1e-3) -> dict[str, Any]:
-    """The JSON record of one planner's result (the module docstring lists its fields)."""
+def plan_record(result: Any, problem: Any, provenance: dict[str, Any], step: float = 1e-3) -> dict[str, Any]:
+    """The JSON record of one planner's result (a judgeopt.planners.result.PlanResult) for its
+    problem (judgeopt.planners.problem.Problem); the module docstring lists its fields."""
     plan = result.plan
     if plan is None:
         raise PlanError(f"{result.method}: no plan to export (status {result.status}: {result.message})")
@@ -160,7 +159,7 @@ def plan_record(result: PlanResult, problem: Problem, provenance: dict[str, Any]
     return _clean(record)
 
 
-def write_json(result: PlanResult, problem: Problem, path: str | Path, provenance: dict[str, Any],
+def write_json(result: Any, problem: Any, path: str | Path, provenance: dict[str, Any],
                step: float = 1e-3) -> Path:
     """One self-contained JSON file for a plan (fields: module docstring), written atomically
     (temporary file, then rename), so a controller polling the path never reads half a plan."""
@@ -244,7 +243,7 @@ def plan_from_record(rec: dict[str, Any], path: str | Path) -> Plan:
 def record_frame(rec: dict[str, Any], path: str | Path) -> TaskFrame:
     """The record's task frame, checked; the task's default frame for a file written before
     plans recorded one."""
-    from judgeopt.planners.frame import FrameError, task_frame
+    from judgeopt.formats.frame import FrameError, task_frame
     from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 
     try:  # a record's frame was checked when planned: a failure here is an edited file

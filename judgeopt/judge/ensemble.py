@@ -20,9 +20,11 @@ import numpy as np
 
 from judgeopt.judge.model import Judge, JudgeError
 from judgeopt.files import atomic_write
+from judgeopt.formats.header import check_header, header
 from judgeopt.judge.store import load_judge, save_judge
 
 FORMAT = "judgeopt-judge-ensemble"
+VERSION = 1
 
 
 @dataclass(frozen=True)
@@ -87,8 +89,9 @@ def load_ensemble(path: str | Path) -> tuple[list[Judge], dict]:
         meta = json.loads(manifest.read_text())
     except (OSError, json.JSONDecodeError) as exc:
         raise JudgeError(f"{manifest}: corrupt ensemble manifest ({exc})") from None
-    if meta.get("format") != FORMAT or not meta.get("members"):
-        raise JudgeError(f"{manifest}: not a judgeopt ensemble manifest, or it lists no members")
+    check_header(meta, str(manifest), FORMAT, VERSION, JudgeError, "ensemble manifest")
+    if not meta.get("members"):
+        raise JudgeError(f"{manifest}: the ensemble manifest lists no members")
     members = []
     for m in meta["members"]:
         judge, jmeta = load_judge(path / m["name"])
@@ -127,7 +130,7 @@ def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: st
                                            "training_seconds": result.seconds, "metrics": metrics})
         meta = json.loads((out / f"{name}.json").read_text())
         members.append({"name": name, "weights_sha256": meta["weights_sha256"], "metrics": meta.get("metrics", {})})
-    manifest = {"format": FORMAT, "format_version": 1, "config": asdict(cfg), "members": members,
+    manifest = {**header(FORMAT, VERSION), "config": asdict(cfg), "members": members,
                 "train_data": str(train_path)}
     atomic_write(out / "ensemble.json", (json.dumps(manifest, indent=2) + "\n").encode())
     return out

@@ -15,6 +15,7 @@ Light to import: the command line reads the names at start-up.
 
 from __future__ import annotations
 
+import importlib
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, Callable, ClassVar
@@ -64,15 +65,26 @@ class PlannerSpec:
     description: str
     #: what it is built from or runs in: "judge", "generator", "simulator" (a ClosedLoopPlanner)
     needs: tuple[str, ...] = ("judge",)
-    #: (problem, judge model, **the planners it uses by name) -> Planner; None for the built-ins,
-    #: which `Planners.load` builds
-    build: Callable[..., Planner] | None = None
+    #: (problem, judge model, **the planners it uses by name) -> Planner, or where to find it
+    #: ("module:Class.method", imported when first built: the command line reads names only);
+    #: None for the built-ins, which `Planners.load` builds
+    build: Callable[..., Planner] | str | None = None
     #: planners it is built on, loaded with it (`--method receding` also runs "direct")
     uses: tuple[str, ...] = ()
 
     @property
     def closed_loop(self) -> bool:
         return "simulator" in self.needs
+
+    def builder(self) -> Callable[..., Planner]:
+        """`build`, imported where it is given as "module:attribute"."""
+        if not isinstance(self.build, str):
+            return self.build
+        module, _, attr = self.build.partition(":")
+        found: Any = importlib.import_module(module)
+        for part in attr.split("."):
+            found = getattr(found, part)
+        return found
 
 
 REGISTRY: dict[str, PlannerSpec] = {}
@@ -108,11 +120,6 @@ register(PlannerSpec("direct", "Ipopt over the judge's CasADi function, every li
 register(PlannerSpec("cem", "the sampling baseline: cross-entropy search over spline commands, the same judge"))
 
 
-def _receding(problem: Any, judge: Any, direct: Any) -> Planner:
-    from judgeopt.planners.receding import RecedingPlanner  # imports CasADi: not at start-up
-
-    return RecedingPlanner(direct)
-
-
 register(PlannerSpec("receding", "the direct solve re-run during execution, every [solver] replan_period, from what "
-                     "the arm measured", ("judge", "simulator"), _receding, uses=("direct",)))
+                     "the arm measured", ("judge", "simulator"), "judgeopt.planners.receding:RecedingPlanner.built",
+                     uses=("direct",)))

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.files import PACKAGE, resolve
-from judgeopt.planners.frame import FrameError, TaskFrame, task_frame
+from judgeopt.formats.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
@@ -214,7 +214,7 @@ class Problem:
     """A planning problem in parts, the way acados groups its problem object: `motion` (what is
     planned), `solver` (options of the direct solve and the receding planner), `generator` (the
     generator's training weights), `models` (the files the planners load) and `frame` (where the
-    plan's axes lie for a robot: [frame], judgeopt.planners.frame; not part of what is planned).
+    plan's axes lie for a robot: [frame], judgeopt.formats.frame; not part of what is planned).
 
     Every field of a part is also read, overridden (`with_overrides`) and given to the
     constructor by name: `Problem(qdot_max=0.4).qdot_max == Problem().motion.qdot_max`."""

@@ -107,6 +107,11 @@ class RecedingPlanner(ClosedLoopPlanner):
         pr = direct.problem
         self.every = self.config.steps(pr.dt, pr.steps)
 
+    @classmethod
+    def built(cls, problem: Any, judge: Any, direct: DirectPlanner) -> "RecedingPlanner":
+        """Its registry entry's builder: on the set's direct solve, configured by its problem."""
+        return cls(direct)
+
     def with_limits(self, problem: Any) -> "RecedingPlanner":
         return RecedingPlanner(self.direct.with_limits(problem), self.config)
 

@@ -221,7 +221,7 @@ class Planners:
             spec = REGISTRY[m]
             if m in METHODS or m in out:
                 continue
-            out[m] = spec.build(problem, self.judge, **{u: getattr(self, u) for u in spec.uses})
+            out[m] = spec.builder()(problem, self.judge, **{u: getattr(self, u) for u in spec.uses})
         return dict(sorted(out.items(), key=lambda kv: self.methods.index(kv[0])))
 
     def _direct_for(self, samples: int, case: str) -> DirectPlanner:

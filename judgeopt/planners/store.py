@@ -18,7 +18,8 @@ from pathlib import Path
 from typing import Any
 
 from judgeopt import __version__
-from judgeopt.judge.store import model_paths, read_meta, read_weights, write_model
+from judgeopt.formats.header import header
+from judgeopt.formats.model_files import model_paths, read_meta, read_weights, write_model
 from judgeopt.planners.generator import Generator, GeneratorConfig
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem, ProblemError
@@ -32,8 +33,7 @@ class GeneratorFileError(ProblemError):
 
 
 def save_generator(gen: Generator, path: str | Path, meta: dict[str, Any] | None = None) -> tuple[Path, Path]:
-    record = {"format": FORMAT, "format_version": 1 if gen.conditioned is None else 2,
-              "package_version": __version__, "config": gen.config.to_dict(), "problem": gen.problem.to_dict()}
+    record = {**header(FORMAT, 1 if gen.conditioned is None else 2), "package_version": __version__, "config": gen.config.to_dict(), "problem": gen.problem.to_dict()}
     if gen.conditioned is not None:
         record["conditioned"] = {"names": list(CONDITION_NAMES), "ranges": gen.conditioned.to_dict()}
     return write_model(gen, path, {**record, **(meta or {})})

@@ -13,7 +13,7 @@ import pytest
 from judgeopt.files import resolve
 from judgeopt.formats.plan import PlanFileError, plan_provenance, plan_record, record_frame
 from judgeopt.formats.exporters import export_record
-from judgeopt.planners.frame import TaskFrame
+from judgeopt.formats.frame import TaskFrame
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.tasks import get_task
