@@ -301,7 +301,7 @@ def cmd_train_ensemble(args) -> int:
     from judgeopt.judge.ensemble import EnsembleConfig, train_ensemble
 
     refuse_overwrite([Path(args.out) / "ensemble.json"], args.overwrite)  # unfinished members resume
-    cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap)
+    cfg = EnsembleConfig(k=args.k, epochs=args.epochs, seed=args.seed, bootstrap=not args.no_bootstrap, arch=args.arch)
     out = train_ensemble(resolve(args.train), resolve(args.test) if args.test else None, args.out, cfg,
                          threads=args.threads, progress=not args.quiet)
     meta = json.loads((out / "ensemble.json").read_text())
@@ -323,4 +323,7 @@ def add_ensemble_command(sub) -> None:
     e.add_argument("--k", type=positive, default=5, help="members")
     e.add_argument("--epochs", type=positive, default=20, help="epochs per member")
     e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
+    from judgeopt.judge.archs import ARCHS
+
+    e.add_argument("--arch", choices=tuple(ARCHS), default="lstm", help="each member's architecture (default lstm)")
     e.set_defaults(func=cmd_train_ensemble)

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from judgeopt.judge.model import Judge, JudgeError
+from judgeopt.judge.model import Judge, JudgeConfig, JudgeError
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
 from judgeopt.judge.store import load_judge, save_judge
@@ -33,6 +33,7 @@ class EnsembleConfig:
     epochs: int = 20  # per member: validation accuracy plateaus around 20-40 (docs/judge.md)
     seed: int = 0
     bootstrap: bool = True
+    arch: str = "lstm"  # each member's architecture (judgeopt.judge.archs), with its default fields
 
 
 def pessimistic(logits, k: float, sqrt=np.sqrt, minimum=np.minimum, eps: float = 0.0):
@@ -120,7 +121,7 @@ def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: st
             if cfg.bootstrap:
                 data = train.subset(np.random.default_rng([cfg.seed, i]).integers(0, train.n, train.n))
             tc = TrainConfig(epochs=cfg.epochs, seed=cfg.seed + i, threads=threads, progress=progress)
-            model, result = train_judge(data, test, tc=tc)
+            model, result = train_judge(data, test, JudgeConfig(arch=cfg.arch), tc=tc)
             metrics = {"val_accuracy": result.best["val_accuracy"], "best_epoch": result.best_epoch}
             if test is not None:
                 metrics["test_accuracy"] = evaluate_judge(model, test)["accuracy"]
