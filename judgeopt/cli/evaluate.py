@@ -66,9 +66,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         if not rows:
             raise ProblemError(f"--rows {args.rows}: no such rows in {args.table} (names: "
                                f"{[r.name for r in table.rows()]})")
-    if args.judge:  # the same table against another judge (e.g. a refined one)
+    if args.judge:  # the same table against another judge (e.g. a refined one): every row that plans with one
+        from judgeopt.planners.base import REGISTRY
+
         rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge).name}", judge=args.judge)
-                if r.judge else r for r in rows]
+                if r.judge or r.method in REGISTRY else r for r in rows]
     out = Path(args.out or f"out/evaluate/{args.table}")
     calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,

@@ -6,6 +6,7 @@ import json
 
 import pytest
 
+from judgeopt.cli import main
 from judgeopt.files import REPO, resolve
 from judgeopt.evaluate.report import summarise, wilson, write_report
 from judgeopt.evaluate.tables import Row, environments, run_table
@@ -63,3 +64,15 @@ def test_run_table_resumes_and_reports(tmp_path):
     assert redone[key][0]["setting"] == res[key][0]["setting"] != "another-setting"
     files = write_report(summarise(rows, redone), tmp_path, "t", "title")
     assert all(f.exists() for f in files) and "| random actions | random |" in files[0].read_text()
+
+
+@pytest.mark.slow
+def test_evaluate_planners_with_another_judge_plans_with_it(tmp_path):
+    """--judge on the planners table (whose rows use the problem's judge) swaps it in every planner row:
+    the rows record the judge they planned with, not the problem's."""
+    out = tmp_path / "t"
+    assert main(["evaluate", "planners", "--problem", "problems/paper_sim_slow.toml", "--methods", "direct", "--judge",
+                 "models/judge_default", "--n", "1", "--no-baselines", "--jobs", "1", "--quiet", "--out", str(out)]) == 0
+    rows = [r for f in (out / "partial").glob("*.json") for r in json.loads(f.read_text())]
+    assert rows and all("judge judge_default" in r["setting_description"] for r in rows)
+    assert "direct, judge_default" in (out / "planners.md").read_text()
