@@ -47,8 +47,9 @@ def solve(problem: Any = "paper_sim", methods: Sequence[str] = ("amortized", "di
     reloading); `simulate`: replay each plan in the task's scene, in `world` where it differs
     from what the planners were told; `options`: session.solve's (warm_start, ranges, suggest)."""
     from judgeopt.planners import session
+    from judgeopt.planners.solve import Planners
 
-    planners = problem if hasattr(problem, "judge_meta") else load_planners(problem, methods)
+    planners = problem if isinstance(problem, Planners) else load_planners(problem, methods)
     sim = simulator(planners.problem.task) if simulate else None
     try:
         return session.solve(planners, simulator=sim, world=world, **options)
