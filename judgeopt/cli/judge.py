@@ -8,6 +8,7 @@ import argparse
 import json
 import math
 import os
+import sys
 import time
 from datetime import datetime, timezone
 from pathlib import Path
@@ -180,7 +181,10 @@ def cmd_test_judge(args: argparse.Namespace) -> int:
         m["accuracy_vs_training_target"] = evaluate_judge(model, ds, invert_labels=True)["accuracy"]
     m["seconds"] = time.perf_counter() - t0
     m.update(model=str(model_path), data=str(args.data), invert_labels=inverted, arch=model.config.arch,
-             env_names=list(model.config.env_names))
+             env_names=list(model.config.env_names), focused_data="focus" in ds.meta)
+    if m["focused_data"]:
+        print(f"note: {args.data} was collected with --focus (where a judge was unsure), so this is not the "
+              "judge's accuracy on the task: score it on random demonstrations", file=sys.stderr)
     if args.json:
         print(json.dumps(_json_safe(m)))
         return 0

@@ -14,7 +14,7 @@ import numpy as np
 from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, env_range, env_values, jobs_option, missing_extra,
-                                 out_option, positive, print_error, seed_option, set_argv, wants_json)
+                                 out_option, positive, print_error, seed_option, set_argv, value_range, wants_json)
 from judgeopt.files import refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
 
@@ -59,8 +59,14 @@ def cmd_collect(args: argparse.Namespace) -> int:
     partial = Path(args.out).with_name(Path(args.out).name + ".partial")
     if not partial.exists():  # an unfinished collection resumes; a finished file is kept
         refuse_overwrite([args.out], args.overwrite)
+    focus = None
+    if args.focus:
+        from judgeopt.judge.focus import JudgeFocus
+
+        focus = JudgeFocus.of(args.focus, band=args.focus_band, tries=args.focus_tries, env_names=task.env_names,
+                              horizon=task.horizon, dt=task.dt)
     spec = CollectionSpec(task=task.name, seed=args.seed, n=args.n, grid=grid, per_env=args.per_env, ranges=ranges,
-                          settings=settings, randomize=randomize or None)
+                          settings=settings, randomize=randomize or None, focus=focus)
     ds = collect(spec, args.out, n_jobs=args.jobs, scheduler=args.scheduler, chunk_size=args.chunk,
                  progress=not args.quiet, command=command_line())
     s = ds.summary()
@@ -159,6 +165,14 @@ def build_parser() -> argparse.ArgumentParser:
                    help="draw one of the scene's unobserved parameters (the task's perturbations, e.g. "
                    "stiffness_factor=0.6,1.6 or y_obj_offset=-0.02,0.02; `judgeopt tasks --json` lists them) uniformly "
                    "per demonstration; the draws are recorded in the file (default: the nominal scene)")
+    c.add_argument("--focus", metavar="JUDGE",
+                   help="active collection: keep a demonstration only where this judge, reading its command, is unsure "
+                   "(probability inside --focus-band); candidates are redrawn up to --focus-tries times. The file is "
+                   "then no sample of the task: train on it beside random demonstrations, never test on it")
+    c.add_argument("--focus-band", type=value_range, default=(0.02, 0.98), metavar="LO,HI",
+                   help="the judge's probabilities counted as unsure (with --focus)")
+    c.add_argument("--focus-tries", type=positive, default=50,
+                   help="candidates per demonstration before the last is kept anyway (with --focus)")
     c.add_argument("--chunk", type=positive, default=25, help="demonstrations per work unit (and per resume step)")
     c.set_defaults(func=cmd_collect)
 

@@ -38,7 +38,11 @@ class CollectionSpec:
     (default: its shipped ones). `randomize`: perturbation name -> (lo, hi), drawn uniformly per
     demonstration (`Task.perturbations`; the command is made for the recorded environment, the
     world differs from it by the draw), from its own generator seeded by (seed, i, 1): a
-    collection without it is the one it always was."""
+    collection without it is the one it always was. `focus`: an object with `accepts(command,
+    env) -> bool` and a `tries` count (judgeopt.judge.focus.JudgeFocus: the judge is unsure);
+    demonstration i then keeps the first of its candidates it accepts (candidate 0 is the
+    unfocused draw, candidate k > 0 draws environment and command from (seed, i, 3, k)), or
+    its last after `tries`."""
 
     task: str = DEFAULT_TASK
     seed: int = 0
@@ -48,6 +52,7 @@ class CollectionSpec:
     ranges: dict[str, tuple[float, float]] | None = None
     settings: Any = None
     randomize: dict[str, tuple[float, float]] | None = None
+    focus: Any = None
 
     def __post_init__(self) -> None:
         task = get_task(self.task)
@@ -83,6 +88,8 @@ class CollectionSpec:
         d = asdict(self)
         if d["randomize"] is None:  # what an unfinished collection made before --randomize recorded
             del d["randomize"]
+        if d["focus"] is None:  # nor before --focus
+            del d["focus"]
         return json.dumps(d, sort_keys=True, default=str)
 
 
@@ -97,13 +104,12 @@ def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
     """Run demonstrations `indices`; bad commands or environments are recorded, not raised."""
     task, sim = get_task(spec.task), _simulator(spec)
     rows: dict[str, list] = {"commands": [], "responses": [], "labels": [], "env": [], "index": [], "randomized": []}
-    errors = []
+    errors, misses = [], 0
     for i in indices:
-        rng = np.random.default_rng([spec.seed, i])
-        env = spec.environment(i, rng)
         draw = spec.world(i)
         try:
-            plan = task.random_command(rng, env, spec.settings)
+            env, plan, accepted = _draw(spec, task, i)
+            misses += not accepted
             if spec.randomize:
                 sim.perturb(draw, seed=[spec.seed, i, 2])
             try:
@@ -122,7 +128,20 @@ def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
         rows["randomized"].append([draw[k] for k in draw])
     out = {k: np.array(v) for k, v in rows.items()}
     out["errors"] = errors
+    out["focus_misses"] = np.array(misses)
     return out
+
+
+def _draw(spec: CollectionSpec, task: Any, i: int) -> tuple[dict[str, float], Any, bool]:
+    """Demonstration i's environment and command (the first candidate spec.focus accepts), and
+    whether it was accepted."""
+    for k in range(spec.focus.tries if spec.focus else 1):
+        rng = np.random.default_rng([spec.seed, i] if k == 0 else [spec.seed, i, 3, k])
+        env = spec.environment(i, rng)
+        plan = task.random_command(rng, env, spec.settings)
+        if spec.focus is None or spec.focus.accepts(plan, env):
+            return env, plan, True
+    return env, plan, False
 
 
 def _chunks(total: int, size: int) -> list[list[int]]:
@@ -182,6 +201,10 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
             "generator": {"grid": spec.grid, "per_env": spec.per_env, "ranges": None if spec.grid else spec.ranges},
             "errors": errors, "collection_seconds_last_run": round(elapsed, 1),
             **({"randomize": {k: list(v) for k, v in spec.randomize.items()}} if names else {}),
+            **({"focus": {**asdict(spec.focus), "misses": int(sum(p.get("focus_misses", 0) for p in parts)),
+                          "note": "demonstrations kept where the focus judge was unsure: not a sample of the "
+                                  "task's distribution (train on it beside random ones; never test on it)"}}
+               if spec.focus is not None else {}),
         },
     )
     save(ds, out)

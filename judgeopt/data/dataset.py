@@ -166,7 +166,7 @@ def save(ds: Dataset, path: str | Path) -> Path:
     return path
 
 
-_JSON_ATTRS = {"simulator", "settings", "generator", "errors", "seed", "randomize"}
+_JSON_ATTRS = {"simulator", "settings", "generator", "errors", "seed", "randomize", "focus"}
 
 
 def load(path: str | Path) -> Dataset:

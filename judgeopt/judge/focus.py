@@ -1,0 +1,75 @@
+"""Active collection: keep only the random demonstrations a judge is unsure about.
+
+Why: a judge's errors sit near its decision boundary (on the scoop, 80-90 % of judge_default's
+errors fall where its probability lies in (0.02, 0.98), a fifth of random demonstrations).
+Simulating a demonstration costs ~0.2 s and judging its command ~1 ms, so drawing candidates
+until the judge is unsure puts several times more of the simulation budget where a judge
+learns (`judgeopt collect --focus JUDGE`).
+
+Before simulating there is no response, so the judge reads the COMMAND in its place: the
+response is the command tracked (y within millimetres, f within newtons), and on the scoop's
+test set the judge's decision on the command agrees with its decision on the response 95 % of
+the time.
+
+A focused collection is not a sample of the task's distribution: its success ratio, and the
+calibration of a judge trained on it alone, differ from the random set's. Add it to random
+demonstrations; never measure accuracy on it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from judgeopt.judge.errors import JudgeError
+
+_LOADED: dict[str, Any] = {}
+
+
+@dataclass(frozen=True)
+class JudgeFocus:
+    """Accept a candidate demonstration when `judge`'s probability of success on its command
+    lies strictly inside `band`. Pickles as its path (workers load the judge once each)."""
+
+    judge: str
+    weights_sha256: str
+    band: tuple[float, float] = (0.02, 0.98)
+    #: candidates drawn per demonstration before the last one is kept anyway (counted as a miss)
+    tries: int = 50
+
+    def __post_init__(self) -> None:
+        lo, hi = self.band
+        if not 0.0 <= lo < hi <= 1.0:
+            raise JudgeError(f"focus band {lo},{hi} must satisfy 0 <= LO < HI <= 1, e.g. 0.02,0.98")
+        if self.tries < 1:
+            raise JudgeError(f"focus tries {self.tries} must be >= 1")
+
+    @classmethod
+    def of(cls, path: str, band: tuple[float, float] = (0.02, 0.98), tries: int = 50,
+           env_names: tuple[str, ...] | None = None, horizon: int | None = None, dt: float | None = None) -> "JudgeFocus":
+        """Load and check the judge now (a bad file is one line here, not in every worker)."""
+        from judgeopt.judge.store import check_compatible, load_judge
+
+        judge, meta = load_judge(path)
+        check_compatible(judge.config, horizon=horizon, dt=dt, env_names=env_names)
+        focus = cls(judge=str(path), weights_sha256=meta["weights_sha256"], band=tuple(band), tries=tries)
+        _LOADED[focus.judge] = judge
+        return focus
+
+    def probability(self, command: np.ndarray, env: dict[str, float]) -> float:
+        judge = _LOADED.get(self.judge)
+        if judge is None:
+            from judgeopt.judge.store import load_judge
+
+            judge, meta = load_judge(self.judge)
+            if meta["weights_sha256"] != self.weights_sha256:
+                raise JudgeError(f"{self.judge} changed since the collection started (weights sha256 differs)")
+            _LOADED[self.judge] = judge
+        e = np.array([env[k] for k in judge.config.env_names])
+        return float(judge.predict_proba(np.asarray(command), e)[0])
+
+    def accepts(self, command: np.ndarray, env: dict[str, float]) -> bool:
+        lo, hi = self.band
+        return lo < self.probability(command, env) < hi
