@@ -8,8 +8,10 @@
 2. Demonstrations per minute of `collect` on all local cores, once its worker processes are
    up (a first, untimed collection with the same --jobs starts them and builds their scenes),
    and the projected time for the paper's 10,000 (target: under 10 minutes on a 2-core machine).
+3. With --focus JUDGE: the same for an active collection (`collect --focus`), timed right after
+   the plain one: what judging the candidates adds per kept demonstration.
 
-    python benchmarks/bench_rollout.py [--rollouts 20] [--demos 60] [--jobs -1]
+    python benchmarks/bench_rollout.py [--rollouts 20] [--demos 60] [--jobs -1] [--focus models/judge_default]
 
 Timings on a shared machine are noisy: compare the ratio, measured side by side, across runs.
 """
@@ -24,6 +26,7 @@ import time
 import numpy as np
 
 from judgeopt.data.collect import CollectionSpec, collect
+from judgeopt.judge.focus import JudgeFocus
 from judgeopt.tasks.scoop.commands import random_command
 from judgeopt.sim.quiet import pb
 from judgeopt.tasks.scoop.rollout import Simulator
@@ -77,12 +80,14 @@ def recorded_torques(sim: Simulator, plans: list) -> list[list[list[float]]]:
     return torques
 
 
-def demos_per_minute(n: int, jobs: int) -> float:
+def demos_per_minute(n: int, jobs: int, focus: JudgeFocus | None = None) -> float:
     with tempfile.TemporaryDirectory() as d:
         # warm up: the workers (kept by joblib between calls) import everything and build their scenes
-        collect(CollectionSpec(seed=123, n=n), os.path.join(d, "bench.h5"), n_jobs=jobs, chunk_size=5, progress=False)
+        collect(CollectionSpec(seed=123, n=n, focus=focus), os.path.join(d, "bench.h5"), n_jobs=jobs, chunk_size=5,
+                progress=False)
         t0 = time.perf_counter()
-        collect(CollectionSpec(seed=124, n=n), os.path.join(d, "bench2.h5"), n_jobs=jobs, chunk_size=5, progress=False)
+        collect(CollectionSpec(seed=124, n=n, focus=focus), os.path.join(d, "bench2.h5"), n_jobs=jobs, chunk_size=5,
+                progress=False)
         return n / (time.perf_counter() - t0) * 60
 
 
@@ -91,6 +96,7 @@ def main() -> None:
     ap.add_argument("--rollouts", type=int, default=20)
     ap.add_argument("--demos", type=int, default=60, help="0: skip the collection benchmark")
     ap.add_argument("--jobs", type=int, default=-1)
+    ap.add_argument("--focus", metavar="JUDGE", help="also time an active collection focused by this judge")
     a = ap.parse_args()
     closed, bare = rollout_rates(a.rollouts)
     print(f"closed-loop (controller + physics): {closed:8.0f} steps/s")
@@ -102,6 +108,9 @@ def main() -> None:
     cores = os.cpu_count()
     print(f"collection on {cores} cores         : {rate:8.1f} demonstrations/min")
     print(f"projected 10,000 demonstrations   : {10000 / rate:8.1f} min   (target < 10 min on 2 cores)")
+    if a.focus:
+        focused = demos_per_minute(a.demos, a.jobs, JudgeFocus.of(a.focus))
+        print(f"focused on {a.focus}: {focused:8.1f} demonstrations/min, {focused / rate:.2f} x the plain rate")
 
 
 if __name__ == "__main__":
