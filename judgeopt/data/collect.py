@@ -107,9 +107,17 @@ def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
     errors, misses = [], 0
     for i in indices:
         draw = spec.world(i)
+        env: dict[str, float] = {}
         try:
-            env, plan, accepted = _draw(spec, task, i)
-            misses += not accepted
+            # candidate 0 is the unfocused draw; with a focus, candidate c > 0 comes from (seed, i, 3, c)
+            for c in range(spec.focus.tries if spec.focus else 1):
+                rng = np.random.default_rng([spec.seed, i] if c == 0 else [spec.seed, i, 3, c])
+                env = spec.environment(i, rng)
+                plan = task.random_command(rng, env, spec.settings)
+                if spec.focus is None or spec.focus.accepts(plan, env):
+                    break
+            else:
+                misses += 1  # out of tries: the last candidate is kept
             if spec.randomize:
                 sim.perturb(draw, seed=[spec.seed, i, 2])
             try:
@@ -130,18 +138,6 @@ def run_chunk(spec: CollectionSpec, indices: list[int]) -> dict[str, Any]:
     out["errors"] = errors
     out["focus_misses"] = np.array(misses)
     return out
-
-
-def _draw(spec: CollectionSpec, task: Any, i: int) -> tuple[dict[str, float], Any, bool]:
-    """Demonstration i's environment and command (the first candidate spec.focus accepts), and
-    whether it was accepted."""
-    for k in range(spec.focus.tries if spec.focus else 1):
-        rng = np.random.default_rng([spec.seed, i] if k == 0 else [spec.seed, i, 3, k])
-        env = spec.environment(i, rng)
-        plan = task.random_command(rng, env, spec.settings)
-        if spec.focus is None or spec.focus.accepts(plan, env):
-            return env, plan, True
-    return env, plan, False
 
 
 def _chunks(total: int, size: int) -> list[list[int]]:

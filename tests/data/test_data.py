@@ -122,6 +122,29 @@ def test_bad_demonstrations_are_recorded_and_collection_goes_on():
     assert "mu" in out["errors"][0]["error"] and "range" in out["errors"][0]["error"]
 
 
+def test_a_command_that_cannot_be_made_is_recorded_with_its_own_environment(monkeypatch):
+    from judgeopt.tasks import get_task
+    from judgeopt.trajectory import PlanError
+
+    task = get_task("scoop")
+    made = task.random_command
+
+    def failing_once(rng, env, settings=None):
+        if env["mu"] > 2.0:  # decided by the environment drawn, so the record can be checked against it
+            raise PlanError("no command here")
+        return made(rng, env, settings)
+
+    monkeypatch.setattr(task, "random_command", failing_once)
+    spec = CollectionSpec(seed=1, n=4)
+    out = run_chunk(spec, [0, 1, 2, 3])
+    envs = [spec.environment(i, np.random.default_rng([1, i])) for i in range(4)]
+    failed = [i for i, e in enumerate(envs) if e["mu"] > 2.0]
+    assert 0 < len(failed) < 4
+    assert [e["index"] for e in out["errors"]] == failed
+    assert all(e["mu"] == envs[e["index"]]["mu"] for e in out["errors"])
+    assert list(out["index"]) == [i for i in range(4) if i not in failed]
+
+
 @pytest.mark.slow
 def test_collection_on_a_local_dask_cluster(reference, tmp_path):
     distributed = pytest.importorskip("dask.distributed")
