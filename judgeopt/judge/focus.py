@@ -24,8 +24,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.judge.errors import JudgeError
-
-_LOADED: dict[str, Any] = {}
+from judgeopt.parallel import worker_cache
 
 
 @dataclass(frozen=True)
@@ -55,8 +54,20 @@ class JudgeFocus:
         judge, meta = load_judge(path)
         check_compatible(judge.config, horizon=horizon, dt=dt, env_names=env_names)
         focus = cls(judge=str(path), weights_sha256=meta["weights_sha256"], band=tuple(band), tries=tries)
-        _LOADED[focus.judge] = judge
+        worker_cache(focus._key, lambda: judge)  # this process needs no second load
         return focus
+
+    @property
+    def _key(self) -> str:
+        return f"focus judge {self.weights_sha256}"
+
+    def _load(self) -> Any:
+        from judgeopt.judge.store import load_judge
+
+        judge, meta = load_judge(self.judge)
+        if meta["weights_sha256"] != self.weights_sha256:
+            raise JudgeError(f"{self.judge} changed since the collection started (weights sha256 differs)")
+        return judge
 
     def probability(self, command: np.ndarray, env: dict[str, float]) -> float:
         """The judge's probability on one command. Sets torch to one thread for the process: a
@@ -66,14 +77,7 @@ class JudgeFocus:
 
         if torch.get_num_threads() != 1:
             torch.set_num_threads(1)
-        judge = _LOADED.get(self.judge)
-        if judge is None:
-            from judgeopt.judge.store import load_judge
-
-            judge, meta = load_judge(self.judge)
-            if meta["weights_sha256"] != self.weights_sha256:
-                raise JudgeError(f"{self.judge} changed since the collection started (weights sha256 differs)")
-            _LOADED[self.judge] = judge
+        judge = worker_cache(self._key, self._load)
         e = np.array([env[k] for k in judge.config.env_names])
         return float(judge.predict_proba(np.asarray(command), e)[0])
 

@@ -72,3 +72,11 @@ def test_scoring_a_judge_on_focused_data_says_it_is_not_the_task_accuracy(files,
     save(files[1], tmp_path / "focused.h5")
     assert main(["test-judge", "--judge", JUDGE, "--data", str(tmp_path / "focused.h5")]) == 0
     assert "not the judge's accuracy on the task" in capsys.readouterr().err
+
+
+def test_a_focused_collection_is_the_same_in_worker_processes(files, tmp_path):
+    # workers load the judge themselves (the focus pickles as its path and weights hash)
+    focus = JudgeFocus.of(JUDGE, band=BAND, tries=30)
+    par = collect(CollectionSpec(seed=11, n=5, focus=focus), tmp_path / "par.h5", n_jobs=2, chunk_size=2,
+                  progress=False)
+    assert np.array_equal(par.commands, files[1].commands) and np.array_equal(par.labels, files[1].labels)
