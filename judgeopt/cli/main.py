@@ -169,10 +169,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="active collection: keep a demonstration only where this judge, reading its command, is unsure "
                    "(probability inside --focus-band); candidates are redrawn up to --focus-tries times. The file is "
                    "then no sample of the task: train on it beside random demonstrations, never test on it")
-    c.add_argument("--focus-band", type=value_range, default=(0.02, 0.98), metavar="LO,HI",
-                   help="the judge's probabilities counted as unsure (with --focus)")
-    c.add_argument("--focus-tries", type=positive, default=50,
-                   help="candidates per demonstration before the last is kept anyway (with --focus)")
+    c.add_argument("--focus-band", type=value_range, metavar="LO,HI",
+                   help="the judge's probabilities counted as unsure (with --focus; default: JudgeFocus.band, 0.02,0.98)")
+    c.add_argument("--focus-tries", type=positive,
+                   help="candidates per demonstration before the last is kept anyway (with --focus; default: "
+                   "JudgeFocus.tries, 50)")
     c.add_argument("--chunk", type=positive, default=25, help="demonstrations per work unit (and per resume step)")
     c.set_defaults(func=cmd_collect)
 

@@ -38,7 +38,7 @@ class CollectionSpec:
     (default: its shipped ones). `randomize`: perturbation name -> (lo, hi), drawn uniformly per
     demonstration (`Task.perturbations`; the command is made for the recorded environment, the
     world differs from it by the draw), from its own generator seeded by (seed, i, 1): a
-    collection without it is the one it always was. `focus`: an object with `accepts(command,
+    collection without it is the one it always was. `focus`: a dataclass with `accepts(command,
     env) -> bool` and a `tries` count (judgeopt.judge.focus.JudgeFocus: the judge is unsure);
     demonstration i then keeps the first of its candidates it accepts (candidate 0 is the
     unfocused draw, candidate k > 0 draws environment and command from (seed, i, 3, k)), or

@@ -46,14 +46,16 @@ class JudgeFocus:
             raise JudgeError(f"focus tries {self.tries} must be >= 1")
 
     @classmethod
-    def of(cls, path: str, band: tuple[float, float] = (0.02, 0.98), tries: int = 50,
+    def of(cls, path: str, band: tuple[float, float] | None = None, tries: int | None = None,
            env_names: tuple[str, ...] | None = None, horizon: int | None = None, dt: float | None = None) -> "JudgeFocus":
-        """Load and check the judge now (a bad file is one line here, not in every worker)."""
+        """Load and check the judge now (a bad file is one line here, not in every worker);
+        band and tries None: the defaults above."""
         from judgeopt.judge.store import check_compatible, load_judge
 
         judge, meta = load_judge(path)
         check_compatible(judge.config, horizon=horizon, dt=dt, env_names=env_names)
-        focus = cls(judge=str(path), weights_sha256=meta["weights_sha256"], band=tuple(band), tries=tries)
+        given = {k: v for k, v in (("band", None if band is None else tuple(band)), ("tries", tries)) if v is not None}
+        focus = cls(judge=str(path), weights_sha256=meta["weights_sha256"], **given)
         worker_cache(focus._key, lambda: judge)  # this process needs no second load
         return focus
 
