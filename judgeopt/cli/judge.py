@@ -30,7 +30,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
 
     from judgeopt.data.dataset import DatasetError, concatenate, load
     from judgeopt.judge.evaluate import evaluate_judge, judge_inputs
-    from judgeopt.judge.model import JudgeConfig
+    from judgeopt.judge.model import JudgeConfig, JudgeError
     from judgeopt.files import sha256_file
     from judgeopt.judge.store import model_paths, save_judge
     from judgeopt.judge.train import TrainConfig, train_judge, write_history
@@ -59,10 +59,13 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     config = JudgeConfig(arch=args.arch, **arch_settings(args), env_names=env_names, horizon=train_ds.horizon,
                          dt=train_ds.dt, channels=train_ds.channels, units=train_ds.units or None)
     tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
-                     input_noise=args.input_noise,
+                     input_noise=args.input_noise, with_commands=args.with_commands,
                      invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.threads,
                      progress=not args.quiet)
-    model, result = train_judge(train_ds, test_ds, config, tc)
+    try:
+        model, result = train_judge(train_ds, test_ds, config, tc)
+    except JudgeError as exc:
+        raise CLIError(f"--train {' '.join(args.train)}: {exc}", ExitCode.BAD_INPUT) from None
     metrics: dict[str, Any] = {"best_epoch": result.best_epoch, "val_accuracy": result.best["val_accuracy"],
                                "val_loss": result.best["val_loss"], "train_accuracy": result.best["train_accuracy"],
                                "n_train": result.n_train, "n_val": result.n_val}
@@ -71,6 +74,8 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         metrics["test_accuracy"] = metrics["test"]["accuracy"]
         if args.invert_labels:
             metrics["test_true_labels"] = evaluate_judge(model, test_ds)
+        if args.with_commands:
+            metrics["test_command"] = evaluate_judge(model, test_ds, invert_labels=args.invert_labels, view="command")
     # the most it ever says: with some labels wrong (a lab's), below 1; a p_target above it is out of reach
     x, e = judge_inputs(model, train_ds)
     metrics["p_max_train"] = float(model.predict_proba(x, e).max())
@@ -105,6 +110,8 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         line += f", test accuracy {metrics['test_accuracy']:.4f}"
         if args.invert_labels:
             line += f" (against the inverted labels; {metrics['test_true_labels']['accuracy']:.4f} against the true ones)"
+        if args.with_commands:
+            line += f"; on the test set's commands {metrics['test_command']['accuracy']:.4f}"
     print(line)
     print(f"highest success probability it gives a training demonstration: {metrics['p_max_train']:.3f}"
           + (" (the direct solve's p_target must lie below it: --p-target / [solver] p_target)"
@@ -175,21 +182,24 @@ def cmd_test_judge(args: argparse.Namespace) -> int:
     model, meta = load_judge(model_path)
     ds = load(args.data)
     t0 = time.perf_counter()
-    m = evaluate_judge(model, ds)
+    m = evaluate_judge(model, ds, view=args.view)
     inverted = bool(meta.get("invert_labels"))
     if inverted:
-        m["accuracy_vs_training_target"] = evaluate_judge(model, ds, invert_labels=True)["accuracy"]
+        m["accuracy_vs_training_target"] = evaluate_judge(model, ds, invert_labels=True, view=args.view)["accuracy"]
     m["seconds"] = time.perf_counter() - t0
-    m.update(model=str(model_path), data=str(args.data), invert_labels=inverted, arch=model.config.arch,
+    m.update(model=str(model_path), data=str(args.data), view=args.view, invert_labels=inverted, arch=model.config.arch,
              env_names=list(model.config.env_names), focused_data="focus" in ds.meta)
+    if args.view == "command" and (ds.commands == ds.responses).all():
+        print(f"note: {args.data} stores no command apart from the measured trajectory (recordings): "
+              "--view command scores the responses", file=sys.stderr)
     if m["focused_data"]:
         print(f"note: {args.data} was collected with --focus (where a judge was unsure), so this is not the "
               "judge's accuracy on the task: score it on random demonstrations", file=sys.stderr)
     if args.json:
         print(json.dumps(_json_safe(m)))
         return 0
-    print(f"{model_path} on {args.data}" + ("  (trained on INVERTED labels: scored against the true ones)"
-                                             if inverted else ""))
+    print(f"{model_path} on {args.data}" + ("'s commands" if args.view == "command" else "")
+          + ("  (trained on INVERTED labels: scored against the true ones)" if inverted else ""))
     print(format_metrics(m))
     if inverted:
         print(f"  accuracy against the inverted labels it was trained on: {m['accuracy_vs_training_target']:.4f}")
@@ -279,6 +289,8 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
     t.add_argument("--env-names", type=names, help="environment variables the judge sees (default: all in --train)")
     t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
+    t.add_argument("--with-commands", action="store_true",
+                   help="also learn each simulated demonstration from its command, the input planners give the judge")
     from judgeopt.judge.archs import ARCHS, DEFAULT_ARCH, arch_fields
     t.add_argument("--arch", default=DEFAULT_ARCH, metavar="NAME",
                    help=f"network architecture: {', '.join(ARCHS)} (judgeopt/judge/archs/)")
@@ -298,6 +310,9 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--judge", default=DEFAULT_MODEL, metavar="STEM", help="judge model path without suffix")
     e.add_argument("--model", dest="judge", help=argparse.SUPPRESS)  # the name older scripts use
     e.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
+    from judgeopt.judge.evaluate import VIEWS
+    e.add_argument("--view", choices=VIEWS, default=VIEWS[0],
+                   help="score the judge on the measured trajectories (default) or on the commands, as a planner uses it")
     e.set_defaults(func=cmd_test_judge)
 
 

@@ -58,15 +58,22 @@ def expected_calibration_error(labels: np.ndarray, prob: np.ndarray, n_bins: int
     return float(ece)
 
 
-def judge_inputs(model: Judge, ds: Dataset) -> tuple[np.ndarray, np.ndarray]:
-    """(responses, the judge's env columns) after checking the dataset fits the judge."""
+#: what the judge reads of a demonstration: the measured trajectory (the paper's judge) or the commanded
+#: one (what a planner hands the judge: its plan)
+VIEWS = ("response", "command")
+
+
+def judge_inputs(model: Judge, ds: Dataset, view: str = "response") -> tuple[np.ndarray, np.ndarray]:
+    """(responses or commands, the judge's env columns) after checking the dataset fits the judge."""
     check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, channels=ds.channels, env_names=ds.env_names)
-    return ds.responses, select_env(ds.env, ds.env_names, model.config.env_names)
+    if view not in VIEWS:
+        raise ValueError(f"view {view!r}: one of {', '.join(VIEWS)}")
+    return ds.responses if view == "response" else ds.commands, select_env(ds.env, ds.env_names, model.config.env_names)
 
 
-def evaluate_judge(model: Judge, ds: Dataset, invert_labels: bool = False) -> dict[str, Any]:
-    """Metrics of `model` on `ds` against the dataset's labels (or 1 - labels when asked)."""
-    x, e = judge_inputs(model, ds)
+def evaluate_judge(model: Judge, ds: Dataset, invert_labels: bool = False, view: str = "response") -> dict[str, Any]:
+    """Metrics of `model` on `ds` (read as `view`) against the dataset's labels (or 1 - labels when asked)."""
+    x, e = judge_inputs(model, ds, view)
     prob = model.predict_proba(x, e)
     labels = 1 - ds.labels if invert_labels else ds.labels
     return classification_metrics(labels, prob)

@@ -12,7 +12,7 @@ import copy
 import csv
 import json
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -20,7 +20,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.data.dataset import Dataset
+from judgeopt.data.dataset import Dataset, concatenate
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, select_env
 from judgeopt.judge.store import check_compatible
 
@@ -49,6 +49,10 @@ class TrainConfig:
     #: Gaussian noise added to the inputs during training, in units of the normalisation std
     #: (a sensor-noise augmentation against overfitting; 0 disables)
     input_noise: float = 0.05
+    #: also learn each demonstration from its command (the trajectory the robot was told), with the
+    #: same label, where it differs from the response: the planners hand the judge a command, which a
+    #: judge of responses alone scores 2-3 points worse (docs/judge.md, "Commands as a second view")
+    with_commands: bool = False
     schedule: str = "cosine"
     lr_final: float = 0.02
     threads: int | None = None
@@ -65,6 +69,18 @@ class TrainConfig:
             raise JudgeError(f"schedule must be 'cosine' or 'constant', got {self.schedule!r}")
         if not 0.0 < self.val_fraction < 0.5:
             raise JudgeError(f"val_fraction {self.val_fraction} must be in (0, 0.5)")
+
+
+def with_command_views(ds: Dataset) -> Dataset:
+    """`ds` followed by its command view: every demonstration whose command differs from its
+    response once more, with the command as its input and the same label. Recordings (commands
+    equal to responses) have no second view: a one-line JudgeError when none has one."""
+    differ = np.any(ds.commands != ds.responses, axis=(1, 2))
+    if not differ.any():
+        raise JudgeError("no demonstration here has a command apart from its response (recordings store the "
+                         "measured trajectory as both): train without --with-commands")
+    twins = ds.subset(differ)
+    return concatenate([ds, replace(twins, responses=twins.commands)])
 
 
 @dataclass
@@ -135,6 +151,8 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
 
     tr_idx, va_idx = stratified_split(train_ds.labels, tc.val_fraction, tc.seed)
     train_part, val_part = train_ds.subset(tr_idx), train_ds.subset(va_idx)
+    if tc.with_commands:  # after the split, so that no demonstration's two views fall on both sides
+        train_part, val_part = with_command_views(train_part), with_command_views(val_part)
     if init is not None:
         model = copy.deepcopy(init).float()
     else:
@@ -150,10 +168,12 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
                                                                                   replace=False)))
         tr_eval = (tr[0][pick], tr[1][pick], tr[2][pick])
     te_true = (te[0], te[1], torch.as_tensor(test_ds.labels, dtype=torch.float32)) if te is not None else None
+    te_cmd = (_tensors(model, replace(test_ds, responses=test_ds.commands), tc.invert_labels)
+              if te is not None and tc.with_commands else None)
 
     opt = torch.optim.Adam(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay)
     loss_fn = nn.BCEWithLogitsLoss()
-    steps = tc.epochs * ((len(tr_idx) + tc.batch_size - 1) // tc.batch_size)
+    steps = tc.epochs * ((len(tr[2]) + tc.batch_size - 1) // tc.batch_size)
     sched = None
     if tc.schedule == "cosine":
         sched = torch.optim.lr_scheduler.LambdaLR(
@@ -194,6 +214,8 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
             row["test_accuracy"], row["test_loss"] = _score(model, te, tc.eval_batch)
             if tc.invert_labels:
                 row["test_accuracy_true_labels"] = _score(model, te_true, tc.eval_batch)[0]
+            if te_cmd is not None:
+                row["test_command_accuracy"] = _score(model, te_cmd, tc.eval_batch)[0]
         row["seconds"] = time.perf_counter() - t0
         history.append(row)
         key = (row["val_accuracy"], -row["val_loss"])

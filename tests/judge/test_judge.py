@@ -12,7 +12,7 @@ import torch
 from judgeopt.data.dataset import Dataset, save
 from judgeopt.judge.casadi_fn import build_casadi_judge, model_hash, torch_logit_and_grad
 from judgeopt.judge.evaluate import classification_metrics, evaluate_judge, expected_calibration_error
-from judgeopt.judge.model import Judge, JudgeConfig, TrajectoryError, UnrolledJudge
+from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, TrajectoryError, UnrolledJudge
 from judgeopt.judge.store import (IncompatibleJudgeError, JudgeFileError, check_compatible, load_judge, model_paths,
                                   save_judge)
 from judgeopt.judge.train import TrainConfig, stratified_split, train_judge
@@ -370,3 +370,52 @@ def test_cli_errors_are_clear(tmp_path, capsys):
     assert main(["train-judge", "--train", str(data), "--out", str(tmp_path / "k"), "--env-names", "zeta",
                  "--quiet"]) == 2
     assert "--env-names zeta" in capsys.readouterr().err
+
+
+# -- commands as a second view ------------------------------------------------------------------
+def command_only_signal(n: int, seed: int) -> Dataset:
+    """The label is in the command alone: the commands are synthetic()'s ramps, while every
+    response is the same flat trajectory plus noise (a controller that tracked nothing)."""
+    ds = synthetic(n, seed=seed)
+    rng = np.random.default_rng(seed + 100)
+    flat = np.broadcast_to(ds.responses.mean(axis=0), ds.responses.shape)
+    resp = flat + 0.01 * ds.responses.std(axis=0) * rng.standard_normal(ds.responses.shape)
+    return Dataset(ds.responses.copy(), resp, ds.labels, ds.env, ds.dt, ds.env_names)
+
+
+def test_command_views_follow_their_demonstrations():
+    from judgeopt.judge.train import with_command_views
+    ds = command_only_signal(10, seed=0)
+    ds.responses[:4] = ds.commands[:4]  # four demonstrations tracked perfectly: no second view
+    both = with_command_views(ds)
+    assert both.n == 16
+    assert np.array_equal(both.responses[10:], ds.commands[4:]) and np.array_equal(both.labels[10:], ds.labels[4:])
+    assert np.array_equal(both.env[10:], ds.env[4:])
+    with pytest.raises(JudgeError, match="without --with-commands"):
+        with_command_views(synthetic(10))  # commands equal responses, as in imported recordings
+
+
+def test_with_commands_learns_what_only_the_command_shows(tmp_path, capsys):
+    from judgeopt.cli import main
+    ds, test = command_only_signal(600, seed=1), command_only_signal(300, seed=2)
+    plain, _ = _train(ds, test)
+    both, result = _train(ds, test, with_commands=True)
+    assert evaluate_judge(both, test, view="command")["accuracy"] >= 0.9
+    assert evaluate_judge(plain, test, view="command")["accuracy"] <= 0.8  # the responses taught it nothing
+    assert result.n_train == 540 and "test_command_accuracy" in result.history[0]
+    save_judge(both, tmp_path / "j")
+    save(test, tmp_path / "t.h5")
+    capsys.readouterr()
+    assert main(["test-judge", "--judge", str(tmp_path / "j"), "--data", str(tmp_path / "t.h5"), "--view", "command",
+                 "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["view"] == "command" and res["accuracy"] >= 0.9
+
+
+def test_with_commands_on_recordings_is_one_line(tmp_path, capsys):
+    from judgeopt.cli import main
+    save(synthetic(60, seed=1), tmp_path / "rec.h5")
+    assert main(["train-judge", "--train", str(tmp_path / "rec.h5"), "--with-commands", "--epochs", "1",
+                 "--out", str(tmp_path / "k"), "--quiet"]) == 5
+    err = capsys.readouterr().err.strip()
+    assert "without --with-commands" in err and len(err.splitlines()) == 1
