@@ -9,7 +9,8 @@ learns (`judgeopt collect --focus JUDGE`).
 Before simulating there is no response, so the judge reads the COMMAND in its place: the
 response is the command tracked (y within millimetres, f within newtons), and on the scoop's
 test set the judge's decision on the command agrees with its decision on the response 95 % of
-the time.
+the time. A judge trained with `train-judge --with-commands` reads commands about as well as
+responses (docs/judge.md, "Commands as a second view").
 
 A focused collection is not a sample of the task's distribution: its success ratio, and the
 calibration of a judge trained on it alone, differ from the random set's. Add it to random
