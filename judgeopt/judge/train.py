@@ -51,7 +51,7 @@ class TrainConfig:
     input_noise: float = 0.05
     #: also learn each demonstration from its command (the trajectory the robot was told), with the
     #: same label, where it differs from the response: the planners hand the judge a command, which a
-    #: judge of responses alone scores 2-3 points worse (docs/judge.md, "Commands as a second view")
+    #: judge of responses alone scores 1.6-2.6 points worse (docs/judge.md, "Commands as a second view")
     with_commands: bool = False
     schedule: str = "cosine"
     lr_final: float = 0.02
