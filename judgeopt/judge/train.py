@@ -22,7 +22,7 @@ from torch import nn
 
 from judgeopt.data.dataset import Dataset, concatenate
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, select_env
-from judgeopt.judge.store import check_compatible
+from judgeopt.judge.evaluate import judge_inputs
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -108,9 +108,9 @@ def stratified_split(labels: np.ndarray, fraction: float, seed: int) -> tuple[np
     return t, v
 
 
-def _tensors(model: Judge, ds: Dataset, invert: bool) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, channels=ds.channels, env_names=ds.env_names)
-    x, e = model.check_inputs(ds.responses, select_env(ds.env, ds.env_names, model.config.env_names))
+def _tensors(model: Judge, ds: Dataset, invert: bool, view: str = "response"
+             ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    x, e = model.check_inputs(*judge_inputs(model, ds, view))
     y = (1 - ds.labels) if invert else ds.labels
     return (torch.as_tensor(x, dtype=torch.float32), torch.as_tensor(e, dtype=torch.float32),
             torch.as_tensor(y, dtype=torch.float32))
@@ -168,8 +168,7 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
                                                                                   replace=False)))
         tr_eval = (tr[0][pick], tr[1][pick], tr[2][pick])
     te_true = (te[0], te[1], torch.as_tensor(test_ds.labels, dtype=torch.float32)) if te is not None else None
-    te_cmd = (_tensors(model, replace(test_ds, responses=test_ds.commands), tc.invert_labels)
-              if te is not None and tc.with_commands else None)
+    te_cmd = _tensors(model, test_ds, tc.invert_labels, "command") if te is not None and tc.with_commands else None
 
     opt = torch.optim.Adam(model.parameters(), lr=tc.lr, weight_decay=tc.weight_decay)
     loss_fn = nn.BCEWithLogitsLoss()
