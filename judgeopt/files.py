@@ -1,6 +1,7 @@
 """Writing files so that nothing already written is lost, hashing them, and finding shipped ones.
 
-Every file judgeopt writes goes through `atomic_write`: a reader (or a crash) sees the old file
+Every file judgeopt writes goes through `atomic_write` (bytes or text) or `atomic_path` (a
+writer that needs a file name): a reader (or a crash) sees the old file
 or the new one, never half of one.
 """
 
@@ -9,8 +10,9 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Sequence
+from typing import Iterator, Sequence
 
 #: the installed package: shipped models in models/, each task's problems in tasks/NAME/problems/
 PACKAGE = Path(__file__).resolve().parent
@@ -65,23 +67,31 @@ def shipped(path: str | Path) -> bool:
         return False
 
 
-def atomic_write(path: str | Path, data: bytes | str) -> None:
-    """Write `data` (text is UTF-8 encoded) to `path` through a temporary file and a rename."""
+@contextmanager
+def atomic_path(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
+    """A temporary file beside `path` for a writer that needs a file name (HDF5, GIF, npz):
+    it becomes `path` by a rename when the block ends, and is removed if the block raises.
+    Its mode follows the umask like an ordinary new file (mkstemp alone makes it 0600)."""
     path = Path(path)
-    if isinstance(data, str):
-        data = data.encode()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+    fd, name = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=suffix)
+    os.close(fd)
+    tmp = Path(name)
     try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
+        yield tmp
         umask = os.umask(0)
         os.umask(umask)
-        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes 0600; a shipped model should be readable
+        os.chmod(tmp, 0o666 & ~umask)
         os.replace(tmp, path)
     except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+        tmp.unlink(missing_ok=True)
         raise
+
+
+def atomic_write(path: str | Path, data: bytes | str) -> None:
+    """Write `data` (text is UTF-8 encoded) to `path` through a temporary file and a rename."""
+    with atomic_path(path) as tmp:
+        tmp.write_bytes(data.encode() if isinstance(data, str) else data)
 
 
 def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:

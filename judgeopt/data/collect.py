@@ -15,7 +15,6 @@ from __future__ import annotations
 import itertools
 import json
 import shutil
-import tempfile
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -25,6 +24,7 @@ import numpy as np
 
 import judgeopt
 from judgeopt.data.dataset import Dataset, DatasetError, load, save
+from judgeopt.files import atomic_path, atomic_write
 from judgeopt.parallel import run_chunks, worker_cache
 from judgeopt.tasks import DEFAULT_TASK, get_task
 from judgeopt.trajectory import PlanError
@@ -145,10 +145,8 @@ def _chunks(total: int, size: int) -> list[list[int]]:
 
 
 def _save_chunk(folder: Path, k: int, result: dict[str, Any]) -> None:
-    tmp = tempfile.NamedTemporaryFile(dir=folder, suffix=".tmp", delete=False)
-    with tmp:
-        np.savez(tmp, errors=json.dumps(result["errors"]), **{k2: v for k2, v in result.items() if k2 != "errors"})
-    Path(tmp.name).replace(folder / f"chunk_{k:06d}.npz")
+    with atomic_path(folder / f"chunk_{k:06d}.npz") as tmp, open(tmp, "wb") as fh:
+        np.savez(fh, errors=json.dumps(result["errors"]), **{k2: v for k2, v in result.items() if k2 != "errors"})
 
 
 def _load_chunk(path: Path) -> dict[str, Any]:
@@ -168,7 +166,7 @@ def collect(spec: CollectionSpec, out: str | Path, n_jobs: int = -1, scheduler: 
     if spec_file.exists() and spec_file.read_text() != spec.fingerprint():
         raise DatasetError(f"{partial} holds an unfinished collection with other settings: "
                            f"rerun that command to finish it, or delete {partial} to start over")
-    spec_file.write_text(spec.fingerprint())
+    atomic_write(spec_file, spec.fingerprint())
     chunks = _chunks(spec.total, chunk_size)
     todo = [k for k in range(len(chunks)) if not (partial / f"chunk_{k:06d}.npz").exists()]
     start = time.perf_counter()

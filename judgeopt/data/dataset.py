@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,6 +33,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from judgeopt.files import atomic_path
 from judgeopt.formats.header import check_header, header
 from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.trajectory import CHANNELS, UNITS
@@ -137,10 +136,7 @@ class Dataset:
 def save(ds: Dataset, path: str | Path) -> Path:
     """Write atomically: a temporary file in the same folder, then a rename."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-    os.close(fd)
-    try:
+    with atomic_path(path) as tmp:
         with h5py.File(tmp, "w") as h:
             h.create_dataset("commands", data=ds.commands.astype(np.float64), compression="gzip", shuffle=True)
             h.create_dataset("responses", data=ds.responses.astype(np.float64), compression="gzip", shuffle=True)
@@ -159,10 +155,6 @@ def save(ds: Dataset, path: str | Path) -> Path:
             a["env_names"] = json.dumps(list(ds.env_names))
             for key, value in ds.meta.items():
                 a[key] = value if isinstance(value, (str, int, float)) else json.dumps(value)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

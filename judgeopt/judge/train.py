@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 import csv
+import io
 import json
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -238,21 +239,21 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
 def write_history(result: TrainResult, prefix: str | Path, title: str = "NN_judge") -> list[Path]:
     """`<prefix>.history.csv`, `<prefix>.history.json` and `<prefix>.accuracy.png`
     (train/validation/test accuracy per epoch, like paper Fig. 6)."""
-    from judgeopt.files import save_figure
+    from judgeopt.files import atomic_write, save_figure
 
     prefix = Path(prefix)
-    prefix.parent.mkdir(parents=True, exist_ok=True)
     csv_path = prefix.with_name(prefix.name + ".history.csv")
     json_path = prefix.with_name(prefix.name + ".history.json")
     png_path = prefix.with_name(prefix.name + ".accuracy.png")
     keys = list(dict.fromkeys(k for row in result.history for k in row))
-    with open(csv_path, "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=keys)
-        w.writeheader()
-        w.writerows(result.history)
-    json_path.write_text(json.dumps({"best_epoch": result.best_epoch, "best": result.best,
-                                     "seconds": result.seconds, "train_config": result.config,
-                                     "history": result.history}, indent=1) + "\n")
+    buf = io.StringIO(newline="")
+    w = csv.DictWriter(buf, fieldnames=keys)
+    w.writeheader()
+    w.writerows(result.history)
+    atomic_write(csv_path, buf.getvalue())
+    atomic_write(json_path, json.dumps({"best_epoch": result.best_epoch, "best": result.best,
+                                        "seconds": result.seconds, "train_config": result.config,
+                                        "history": result.history}, indent=1) + "\n")
     save_figure(plot_history(result, title), png_path)
     return [csv_path, json_path, png_path]
 

@@ -2,12 +2,11 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from judgeopt.files import atomic_path
 from judgeopt.sim.quiet import pb
 from PIL import Image, ImageDraw
 
@@ -45,11 +44,7 @@ def render_rollout(sim: Simulator, plan: Plan, y_obj: float, mu: float, out: str
         draw = ImageDraw.Draw(img)
         draw.text((8, 6), f"{label}  t={(k + 1) * camera.frame_every_ms / 1000:.2f} s", fill=(0, 0, 0))
         images.append(img)
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=out.parent, suffix=".gif.tmp")
-    os.close(fd)
     duration = int(camera.frame_every_ms * camera.slow_motion)
-    images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=duration, loop=0)
-    os.replace(tmp, out)
+    with atomic_path(out, suffix=".gif.tmp") as tmp:
+        images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=duration, loop=0)
     return result
