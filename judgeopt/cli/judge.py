@@ -32,14 +32,15 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     from judgeopt.judge.evaluate import evaluate_judge, judge_inputs
     from judgeopt.judge.model import JudgeConfig, JudgeError
     from judgeopt.files import sha256_file
-    from judgeopt.judge.store import model_paths, save_judge
+    from judgeopt.judge.store import IncompatibleJudgeError, model_paths, save_judge
     from judgeopt.judge.train import TrainConfig, train_judge, write_history
 
     out = Path(args.out)
     if out.suffix in (".pt", ".json"):
         out = out.with_suffix("")
     refuse_overwrite(model_paths(out), args.overwrite)
-    arch_settings(args)  # a bad --arch or --set before any data is read
+    init, init_meta = _init_judge(args) if args.init else (None, None)
+    given = arch_settings(args)  # a bad --arch or --set before any data is read
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     parts = [load(p) for p in args.train]
     try:
@@ -56,15 +57,15 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         raise CLIError(f"{args.test} (task {test_ds.task}, channels {','.join(test_ds.channels)}, N = {test_ds.horizon}, "
                        f"dt = {test_ds.dt}) does not match {' '.join(args.train)} (task {train_ds.task}, channels "
                        f"{','.join(train_ds.channels)}, N = {train_ds.horizon}, dt = {train_ds.dt})")
-    config = JudgeConfig(arch=args.arch, **arch_settings(args), env_names=env_names, horizon=train_ds.horizon,
+    config = JudgeConfig(arch=args.arch, **given, env_names=env_names, horizon=train_ds.horizon,
                          dt=train_ds.dt, channels=train_ds.channels, units=train_ds.units or None)
     tc = TrainConfig(epochs=args.epochs, batch_size=args.batch_size, lr=args.lr, seed=args.seed,
                      input_noise=args.input_noise, with_commands=args.with_commands,
                      invert_labels=args.invert_labels, val_fraction=args.val_fraction, threads=args.threads,
                      progress=not args.quiet)
     try:
-        model, result = train_judge(train_ds, test_ds, config, tc)
-    except JudgeError as exc:
+        model, result = train_judge(train_ds, test_ds, config, tc, init=init)
+    except (JudgeError, IncompatibleJudgeError) as exc:
         raise CLIError(f"--train {' '.join(args.train)}: {exc}", ExitCode.BAD_INPUT) from None
     metrics: dict[str, Any] = {"best_epoch": result.best_epoch, "val_accuracy": result.best["val_accuracy"],
                                "val_loss": result.best["val_loss"], "train_accuracy": result.best["train_accuracy"],
@@ -94,6 +95,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         "test_data": ({"path": str(args.test), "sha256": sha256_file(args.test), "n": test_ds.n,
                        "success_ratio": test_ds.success_ratio()} if test_ds is not None else None),
         "train_config": result.config,
+        **({"init": {"path": str(args.init), "weights_sha256": init_meta["weights_sha256"]}} if init else {}),
         "training_seconds": result.seconds,
         "threads": torch.get_num_threads(),
         "torch_version": torch.__version__,
@@ -118,6 +120,27 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
              if metrics["p_max_train"] < 0.99 else ""))
     print("history: " + ", ".join(str(f) for f in files))
     return 0
+
+
+def _init_judge(args: argparse.Namespace):
+    """The judge --init names, loaded; its architecture is the one trained, so --set and another
+    --arch or --env-names would be ignored: refused in one line instead."""
+    from judgeopt.files import resolve
+    from judgeopt.judge.archs import DEFAULT_ARCH
+    from judgeopt.judge.store import JudgeFileError, load_judge
+
+    try:
+        init, meta = load_judge(resolve(args.init))
+    except JudgeFileError as exc:
+        raise CLIError(f"--init {args.init}: {exc}", ExitCode.BAD_INPUT) from None
+    kept = init.config
+    shorthands = any(getattr(args, key, None) is not None for key in ARCH_OPTIONS)
+    if args.set or shorthands or args.arch not in (DEFAULT_ARCH, kept.arch) or (
+            args.env_names and tuple(args.env_names) != tuple(kept.env_names)):
+        raise CLIError(f"--init {args.init}: its architecture ({kept.arch}) and environment variables "
+                       f"({','.join(kept.env_names)}) are kept: drop --arch, --set and --env-names", ExitCode.BAD_INPUT)
+    args.arch = kept.arch
+    return init, meta
 
 
 #: the LSTM's options train-judge had before --arch and --set: shorthands for --set FIELD=VALUE
@@ -289,6 +312,9 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
     t.add_argument("--env-names", type=names, help="environment variables the judge sees (default: all in --train)")
     t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
+    t.add_argument("--init", metavar="JUDGE",
+                   help="continue training this judge (fine-tuning; give a lower --lr): its architecture, "
+                        "environment variables and input normalisation are kept")
     t.add_argument("--with-commands", action="store_true",
                    help="also learn each simulated demonstration from its command, the input planners give the judge")
     from judgeopt.judge.archs import ARCHS, DEFAULT_ARCH, arch_fields

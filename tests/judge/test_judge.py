@@ -419,3 +419,30 @@ def test_with_commands_on_recordings_is_one_line(tmp_path, capsys):
                  "--out", str(tmp_path / "k"), "--quiet"]) == 5
     err = capsys.readouterr().err.strip()
     assert "without --with-commands" in err and len(err.splitlines()) == 1
+
+
+def test_cli_init_continues_a_judge_and_keeps_what_it_was_trained_with(tmp_path, capsys):
+    from judgeopt.cli import main
+    first, more = tmp_path / "a.h5", tmp_path / "b.h5"
+    save(synthetic(120, seed=1), first)
+    b = synthetic(120, seed=7)
+    b.responses[:] = 3.0 * b.responses + 1.0  # other statistics: a refitted normalisation would differ
+    save(b, more)
+    common = ["--epochs", "1", "--batch-size", "32", "--threads", "1", "--quiet"]
+    assert main(["train-judge", "--train", str(first), "--out", str(tmp_path / "j"), "--arch", "tcn",
+                 "--set", "tcn_channels=4", *common]) == 0
+    assert main(["train-judge", "--train", str(more), "--out", str(tmp_path / "k"), "--init", str(tmp_path / "j"),
+                 "--lr", "1e-4", *common]) == 0  # no --arch: the default (lstm) must not replace the judge's own
+    a, b_meta = (json.loads((tmp_path / f"{n}.json").read_text()) for n in "jk")
+    assert b_meta["config"]["arch"] == "tcn" and b_meta["config"]["tcn_channels"] == 4
+    assert b_meta["normalization"] == a["normalization"]
+    assert b_meta["init"]["weights_sha256"] == a["weights_sha256"] != b_meta["weights_sha256"]
+    capsys.readouterr()
+    for extra in (["--set", "tcn_channels=8"], ["--arch", "lstm", "--lstm-units", "4"], ["--env-names", "mu"]):
+        assert main(["train-judge", "--train", str(more), "--out", str(tmp_path / "m"), "--init", str(tmp_path / "j"),
+                     *extra, *common]) != 0
+        err = capsys.readouterr().err.strip()
+        assert "drop --arch, --set and --env-names" in err and len(err.splitlines()) == 1, extra
+    assert main(["train-judge", "--train", str(more), "--out", str(tmp_path / "m"), "--init",
+                 str(tmp_path / "none"), *common]) != 0
+    assert "--init" in capsys.readouterr().err and not (tmp_path / "m.json").exists()
