@@ -68,13 +68,13 @@ def shipped(path: str | Path) -> bool:
 
 
 @contextmanager
-def atomic_path(path: str | Path, suffix: str = ".tmp") -> Iterator[Path]:
+def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary file beside `path` for a writer that needs a file name (HDF5, GIF, npz):
     it becomes `path` by a rename when the block ends, and is removed if the block raises.
     Its mode follows the umask like an ordinary new file (mkstemp alone makes it 0600)."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, name = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=suffix)
+    fd, name = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
     os.close(fd)
     tmp = Path(name)
     try:

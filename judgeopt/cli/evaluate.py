@@ -127,17 +127,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def _report(args: argparse.Namespace, stem: Path, md: str, summary: list[dict], figure, notes: list[str]) -> int:
     """An evaluation's Markdown, CSV (one row per summary entry) and figure at STEM.md/.csv/.png,
     printed with its notes and the command that made it."""
-    import csv
-    import io
-
     from judgeopt.files import atomic_write, save_figure
+    from judgeopt.formats.table_csv import write_records
 
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(dict.fromkeys(k for s in summary for k in s)))
-    w.writeheader()
-    w.writerows(summary)
     atomic_write(stem.with_suffix(".md"), md)
-    atomic_write(stem.with_suffix(".csv"), buf.getvalue())
+    write_records(stem.with_suffix(".csv"), summary)
     png = save_figure(figure, stem.with_suffix(".png"))
     for note in notes:
         print(f"note: {note}")

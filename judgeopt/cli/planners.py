@@ -14,7 +14,7 @@ import numpy as np
 
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, out_option,
                                  positive, seed_option, threads_option, value_range)
-from judgeopt.files import atomic_write, refuse_overwrite
+from judgeopt.files import refuse_overwrite
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
                                        load_problem)
 
@@ -405,18 +405,11 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
 
 
 def _write_history(history: list[dict], out: Path) -> None:
-    import csv
-    import io
-
+    from judgeopt.formats.table_csv import write_records
     from judgeopt.judge.store import model_paths
 
-    if not history:
-        return
-    buf = io.StringIO(newline="")
-    w = csv.DictWriter(buf, fieldnames=list(history[0]))
-    w.writeheader()
-    w.writerows(history)
-    atomic_write(model_paths(out)[1].with_suffix(".history.csv"), buf.getvalue())
+    if history:
+        write_records(model_paths(out)[1].with_suffix(".history.csv"), history)
 
 
 def add_planner_commands(sub: argparse._SubParsersAction) -> None:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-import csv
-import io
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,6 +13,7 @@ if TYPE_CHECKING:
 
 def cmd_refine(args: argparse.Namespace) -> int:
     from judgeopt.files import atomic_write, save_figure
+    from judgeopt.formats.table_csv import write_records
     from judgeopt.cli.planners import limit_ranges_from_args, problem_from_args
     from judgeopt.planners.limits import wide_limits
     from judgeopt.files import resolve
@@ -45,11 +44,7 @@ def cmd_refine(args: argparse.Namespace) -> int:
             return 0
     md = markdown(figures)
     atomic_write(out / "refine.md", md.encode())
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=sorted({k for f in figures for k in f}))
-    w.writeheader()
-    w.writerows(figures)
-    atomic_write(out / "refine.csv", buf.getvalue().encode())
+    write_records(out / "refine.csv", figures, fieldnames=sorted({k for f in figures for k in f}))
     save_figure(plot(figures), out / "refine.png")
     print(md)
     print(f"wrote {out / 'refine.md'}, {out / 'refine.csv'}, {out / 'refine.png'}")

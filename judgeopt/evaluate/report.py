@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import csv
-import io
 import math
 from pathlib import Path
 
@@ -12,6 +10,7 @@ from matplotlib.figure import Figure
 
 from judgeopt.evaluate.tables import Row
 from judgeopt.files import atomic_write, save_figure
+from judgeopt.formats.table_csv import write_records
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -108,12 +107,7 @@ def write_report(summary: list[dict], out: Path, name: str, title: str,
     out = Path(out)
     md = out / f"{name}.md"
     atomic_write(md, markdown(summary, title))
-    buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=list(summary[0]))
-    w.writeheader()
-    w.writerows(summary)
-    csv_path = out / f"{name}.csv"
-    atomic_write(csv_path, buf.getvalue())
+    csv_path = write_records(out / f"{name}.csv", summary)
     files = [md, csv_path, save_figure(plot(summary, title), out / f"{name}.png")]
     if results is not None and rows is not None:
         files.append(save_figure(plot_reliability(rows, results, title), out / f"{name}_reliability.png"))

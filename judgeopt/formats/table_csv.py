@@ -1,6 +1,6 @@
 """The importer's CSV: one header row naming the columns (t, each channel by name, a label, the
 environment; SI units), one row per sample. `read_table` is what `judgeopt import-demos` reads;
-`write_table` is the one writer, used for plans sent to a robot (`write_plan_csv`, so a recording
+`write_table` is its one writer, used for plans sent to a robot (`write_plan_csv`, so a recording
 of the executed plan with a `label` column re-imports unchanged) and for datasets exported as
 demonstrations (judgeopt.data.export).
 """
@@ -47,6 +47,17 @@ def table_text(header: Sequence[str], rows: Iterable[Sequence[object]]) -> str:
 def write_table(path: str | Path, header: Sequence[str], rows: Iterable[Sequence[object]]) -> Path:
     """Write atomically (a reader sees the old file or the whole new one)."""
     atomic_write(path, table_text(header, rows))
+    return Path(path)
+
+
+def write_records(path: str | Path, records: Sequence[dict], fieldnames: Sequence[str] | None = None) -> Path:
+    """Rows of dicts (a training history, a summary) as CSV, atomically; the columns are
+    `fieldnames`, else every key in the order it first appears."""
+    buf = io.StringIO(newline="")
+    w = csv.DictWriter(buf, fieldnames=list(fieldnames or dict.fromkeys(k for r in records for k in r)))
+    w.writeheader()
+    w.writerows(records)
+    atomic_write(path, buf.getvalue())
     return Path(path)
 
 

@@ -9,8 +9,6 @@ the epoch with the best validation accuracy is kept, and the test set is only re
 from __future__ import annotations
 
 import copy
-import csv
-import io
 import json
 import time
 from dataclasses import asdict, dataclass, field, replace
@@ -240,17 +238,13 @@ def write_history(result: TrainResult, prefix: str | Path, title: str = "NN_judg
     """`<prefix>.history.csv`, `<prefix>.history.json` and `<prefix>.accuracy.png`
     (train/validation/test accuracy per epoch, like paper Fig. 6)."""
     from judgeopt.files import atomic_write, save_figure
+    from judgeopt.formats.table_csv import write_records
 
     prefix = Path(prefix)
     csv_path = prefix.with_name(prefix.name + ".history.csv")
     json_path = prefix.with_name(prefix.name + ".history.json")
     png_path = prefix.with_name(prefix.name + ".accuracy.png")
-    keys = list(dict.fromkeys(k for row in result.history for k in row))
-    buf = io.StringIO(newline="")
-    w = csv.DictWriter(buf, fieldnames=keys)
-    w.writeheader()
-    w.writerows(result.history)
-    atomic_write(csv_path, buf.getvalue())
+    write_records(csv_path, result.history)
     atomic_write(json_path, json.dumps({"best_epoch": result.best_epoch, "best": result.best,
                                         "seconds": result.seconds, "train_config": result.config,
                                         "history": result.history}, indent=1) + "\n")

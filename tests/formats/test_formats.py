@@ -11,7 +11,7 @@ import pytest
 from judgeopt.cli import main
 from judgeopt.formats.exporters import EXPORTERS, exporter_for
 from judgeopt.formats.header import check_header, header
-from judgeopt.formats.table_csv import read_table, write_plan_csv
+from judgeopt.formats.table_csv import read_table, write_plan_csv, write_records
 from judgeopt.tasks import get_task
 from judgeopt.trajectory import PlanError
 
@@ -66,3 +66,13 @@ def test_the_exporter_registry_is_what_the_command_line_offers(capsys):
     with pytest.raises(SystemExit):
         main(["export", "--help"])
     assert f"{{{','.join(EXPORTERS)}}}" in capsys.readouterr().out
+
+
+def test_records_keep_every_column_in_the_order_it_first_appears(tmp_path):
+    import csv
+    rows = [{"epoch": 1, "val": 0.5}, {"epoch": 2, "val": 0.6, "test": 0.7}]  # a column added later (as --test is)
+    write_records(tmp_path / "h.csv", rows)
+    with open(tmp_path / "h.csv", newline="") as fh:
+        back = list(csv.DictReader(fh))
+    assert list(back[0]) == ["epoch", "val", "test"]
+    assert back == [{"epoch": "1", "val": "0.5", "test": ""}, {"epoch": "2", "val": "0.6", "test": "0.7"}]

@@ -45,6 +45,6 @@ def render_rollout(sim: Simulator, plan: Plan, y_obj: float, mu: float, out: str
         draw.text((8, 6), f"{label}  t={(k + 1) * camera.frame_every_ms / 1000:.2f} s", fill=(0, 0, 0))
         images.append(img)
     duration = int(camera.frame_every_ms * camera.slow_motion)
-    with atomic_path(out, suffix=".gif.tmp") as tmp:
+    with atomic_path(out) as tmp:
         images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:], duration=duration, loop=0)
     return result
