@@ -217,5 +217,6 @@ class Judge(nn.Module):
         return torch.cat(out).double().numpy() if out else np.zeros(0)
 
     def predict_proba(self, x: np.ndarray, e: np.ndarray) -> np.ndarray:
-        return 1.0 / (1.0 + np.exp(-self.predict_logit(x, e)))
+        # exp(-log(1 + exp(-z))): no overflow warning for a confident logit (z < -709)
+        return np.exp(-np.logaddexp(0.0, -self.predict_logit(x, e)))
 

@@ -367,8 +367,10 @@ class DirectPlanner(Planner):
             while True:
                 working = min(target, reached + TARGET_STEP)
                 x = self._round(x, fixed, working, runs, reached)
-                reached = self._reached(x, fixed)
-                short = reached < working - 1e-3  # out of reach: the judge's best is here
+                before, reached = reached, self._reached(x, fixed)
+                # out of reach: the judge's best is here. A round that ran out of iterations after
+                # most of its step (a judge with many ReLU kinks) gets another round instead
+                short = reached < working - 1e-3 and reached - before < 0.5 * (working - before)
                 if short or working >= target or len(runs) >= MAX_ROUNDS \
                         or sum(r["iter_count"] for r in runs) >= pr.max_iter:
                     break

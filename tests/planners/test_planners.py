@@ -136,11 +136,14 @@ def test_direct_reports_infeasible_without_a_traceback(direct, judge):
     assert r.status == "infeasible" and r.plan is None and "limits.qdot_max" in r.info["conflict"]
 
 
-def test_direct_p_min_constraint(judge):
+@pytest.mark.parametrize("stem", ["judge_refined", "judge_default"])  # an LSTM, and a TCN with many ReLU kinks
+def test_direct_p_min_constraint(stem):
     from judgeopt.judge.casadi_fn import build_casadi_judge
+    from judgeopt.judge.store import load_judge
     from judgeopt.planners.direct import DirectPlanner
 
     # without the judge in the objective the smoothest plan is judged a failure; p_min lifts it
+    judge = load_judge(ROOT / "models" / stem)[0]
     cj = build_casadi_judge(judge)
     env = {"y_obj": 0.25, "mu": 3.0}  # high friction: the smoothest plan presses with only 12.5 N
     smooth = Problem(qdot_max=0.4, f_min=5.0, f_max=20.0)
@@ -149,8 +152,11 @@ def test_direct_p_min_constraint(judge):
     held = DirectPlanner(smooth.with_overrides(p_target=0.5, p_min=0.9), judge, cj).solve(
         env, guess=default_guess(smooth, env))
     assert free.predicted_success < 0.5
-    assert held.status == "solved" and held.predicted_success == pytest.approx(0.9, abs=0.01)
+    # the TCN's first round runs out of iterations just short of its step: another round, not "out of reach"
+    assert 0.9 - 1e-6 <= held.predicted_success <= 0.91
     assert held.max_constraint_violation < 1e-6
+    if stem == "judge_refined":  # a smooth enough judge: Ipopt's own tolerance met too
+        assert held.status == "solved"
 
 
 # -- generator ---------------------------------------------------------------------------------
