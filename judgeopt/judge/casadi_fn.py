@@ -48,7 +48,7 @@ import torch
 from torch import nn
 
 from judgeopt.judge.archs import casadi_sigmoid
-from judgeopt.judge.model import Judge, JudgeConfig, JudgeError
+from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
 
 BACKENDS = ("native", "compiled", "torch", "torch32", "l4casadi")
 #: the backends that need the network as a CasADi MX graph (Arch.native_logit)
@@ -368,7 +368,7 @@ class _TorchJudgeCallback(cs.Callback):
 
     def eval(self, args: list) -> list:
         logit = self._forward(args[0], args[1])[0].item()
-        return [logit, _sigmoid(logit)]
+        return [logit, sigmoid(logit)]
 
     def _forward(self, traj: Any, env: Any) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
         """Forward with the autograd graph kept for the last point: solvers ask for the value
@@ -486,5 +486,3 @@ def _tensors(traj: Any, env: Any, shape: tuple[int, int], grad: bool = False,
     return x, e
 
 
-def _sigmoid(v: float) -> float:
-    return float(1.0 / (1.0 + np.exp(-v)))

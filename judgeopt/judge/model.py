@@ -119,6 +119,13 @@ def select_env(env: np.ndarray, available: Sequence[str], wanted: Sequence[str])
     return np.asarray(env)[..., [available.index(n) for n in wanted]]
 
 
+def sigmoid(z: Any) -> Any:
+    """A judge's logit as a probability: exp(-log(1 + exp(-z))), with no overflow warning for a
+    confident logit (z < -709). A float for a number, an array for an array."""
+    p = np.exp(-np.logaddexp(0.0, -np.asarray(z, dtype=float)))
+    return float(p) if p.ndim == 0 else p
+
+
 class Judge(nn.Module):
     """P(success | response trajectory, environment); forward returns the logit.
 
@@ -217,6 +224,5 @@ class Judge(nn.Module):
         return torch.cat(out).double().numpy() if out else np.zeros(0)
 
     def predict_proba(self, x: np.ndarray, e: np.ndarray) -> np.ndarray:
-        # exp(-log(1 + exp(-z))): no overflow warning for a confident logit (z < -709)
-        return np.exp(-np.logaddexp(0.0, -self.predict_logit(x, e)))
+        return sigmoid(self.predict_logit(x, e))
 

@@ -35,7 +35,7 @@ import numpy as np
 
 from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.judge.ensemble import pessimistic
-from judgeopt.judge.model import Judge
+from judgeopt.judge.model import Judge, sigmoid
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
 from judgeopt.planners.base import Planner
@@ -268,7 +268,7 @@ class DirectPlanner(Planner):
     def probability(self, values: np.ndarray, env: dict[str, float]) -> float:
         """The judge's success probability of a (N + 1, channels) trajectory in `env`."""
         z = float(self.cjudge.fn(np.asarray(values, float).ravel(), judge_env(self.judge, env))[0])
-        return float(1.0 / (1.0 + np.exp(-z)))
+        return sigmoid(z)
 
     def with_prefix(self, measured: np.ndarray) -> "DirectPlanner":
         """The same compiled solver for the rest of a motion already under way: samples 0..k-1
@@ -391,7 +391,7 @@ class DirectPlanner(Planner):
             if status == "infeasible" and pr.p_min is None:  # the slack keeps every row satisfiable
                 status = "not_converged"
             if reached < target - 1e-3:
-                p_reached = 1.0 / (1.0 + np.exp(-reached))
+                p_reached = sigmoid(reached)
                 message += (f"; p_target = {pr.p_target:g} not reached in {rounds} round(s) of at most "
                             f"{self._round_iter()} iterations: best p = {p_reached:.3g}")
         plan = self._unpack(x)
@@ -400,13 +400,13 @@ class DirectPlanner(Planner):
         info = {"ipopt_status": ipopt_status, "warm_start": warm, "judge_calls": judge_calls, "rounds": rounds}
         if self.members:  # the ensemble's own prediction: the mean of its members' probabilities
             z = np.array([float(m.fn(traj, je)[0]) for m in self.members])
-            prob = float(np.mean(1.0 / (1.0 + np.exp(-z))))
-            bound = float(1.0 / (1.0 + np.exp(-pessimistic(z, pr.pessimism))))
-            info.update(member_success=(1.0 / (1.0 + np.exp(-z))).tolist(), pessimistic_success=bound)
+            prob = float(np.mean(sigmoid(z)))
+            bound = sigmoid(pessimistic(z, pr.pessimism))
+            info.update(member_success=sigmoid(z).tolist(), pessimistic_success=bound)
         else:
-            bound = prob = float(1.0 / (1.0 + np.exp(-float(self.cjudge.fn(traj, je)[0]))))
+            bound = prob = sigmoid(float(self.cjudge.fn(traj, je)[0]))
         if self.samples > 1:  # the plan's success probability over the set, as it was planned
-            each = [float(1.0 / (1.0 + np.exp(-float(self.cjudge.fn(traj, judge_env(self.judge, e))[0]))))
+            each = [sigmoid(float(self.cjudge.fn(traj, judge_env(self.judge, e))[0]))
                     for e in env_set]
             bound = prob = min(each) if self.case == "worst" else float(np.mean(each))
             info.update(env_case=self.case, env_set=env_set, env_set_success=each)
