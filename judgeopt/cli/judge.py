@@ -265,6 +265,9 @@ def inspect_model(path: str | os.PathLike) -> dict[str, Any]:
         "train_data": meta.get("train_data"),
         "test_data": meta.get("test_data"),
         "command": meta.get("command"),
+        "source": meta.get("source"),  # refined judges: the refinement round, and the judge it continued
+        "fine_tuned_from": meta.get("fine_tuned_from"),
+        "installed_from": meta.get("installed_from"),
         "seed": meta.get("seed"),
         "package_version": meta.get("package_version"),
         "created": meta.get("created"),
@@ -277,6 +280,9 @@ def format_model_info(info: dict[str, Any]) -> str:
     c = info["config"]
     acc = lambda v: "-" if v is None else f"{v:.4f}"  # noqa: E731
     td = info.get("train_data") or {}
+    replays = f", {td['planner_outcomes']} replayed plans x{td.get('weight')}" if td.get("planner_outcomes") else ""
+    made = (f"{info['command']}  (seed {info['seed']}, {(info['training_seconds'] or 0):.0f} s)" if info["command"]
+            else f"{info['source']}, continuing {info['fine_tuned_from']}")
     return "\n".join([
         f"{info['path']}  (judge, judgeopt {info['package_version']}, {info['created']})",
         f"  network        : {info['arch']}: {info['network']}, {info['parameters']} parameters",
@@ -285,10 +291,9 @@ def format_model_info(info: dict[str, Any]) -> str:
         f"env {', '.join(c['env_names'])}" + ("  (trained on INVERTED labels)" if info["invert_labels"] else ""),
         f"  accuracy       : validation {acc(info['val_accuracy'])}, test {acc(info['test_accuracy'])} "
         f"(best epoch {info['best_epoch']})",
-        f"  trained on     : {td.get('path')} (n = {td.get('n')}, sha256 {str(td.get('sha256'))[:12]}...)",
-        f"  made by        : {info['command']}  (seed {info['seed']}, "
-        f"{(info['training_seconds'] or 0):.0f} s)",
-    ])
+        f"  trained on     : {td.get('path')} (n = {td.get('n')}, sha256 {str(td.get('sha256'))[:12]}...{replays})",
+        f"  made by        : {made}",
+    ] + ([f"  installed from : {info['installed_from']}"] if info["installed_from"] else []))
 
 
 def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
