@@ -57,7 +57,8 @@ def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
         judged = _judged(rs)
         pred = [r["predicted_success"] for r in judged]
         sim = [float(r["simulated_success"]) for r in judged]
-        cal = [r for r in judged if r.get("calibrated_success") is not None]
+        # only where the map covers the environment and limits: outside, `solve` prints the judge's p, not the map's
+        cal = [r for r in judged if r.get("calibrated_success") is not None and r.get("calibration_covers")]
         cpred = [r["calibrated_success"] for r in cal]
         csim = [float(r["simulated_success"]) for r in cal]
         out.append({"row": row.name, "method": row.method, "judge": row.judge or "-",

@@ -71,6 +71,19 @@ def test_compare_report_has_every_planner_and_a_reliability_diagram(tmp_path):
     assert "ECE" in files[0].read_text()
 
 
+def test_the_calibrated_column_counts_only_plans_the_calibration_covers():
+    """Outside its fitted ranges a calibration map extrapolates a rate, and `solve` reports the
+    judge's p there; a table's 'calibrated' column must not show the extrapolated value either."""
+    rows = compare()[:1]
+    plans = [{"simulated_success": i < 3, "predicted_success": 0.99, "calibrated_success": c, "calibration_covers": cov,
+              "max_constraint_violation": 0.0, "solve_time_s": 0.1, "env_index": i}
+             for i, (c, cov) in enumerate([(0.6, True), (0.6, True), (1.0, False), (1.0, False)])]
+    (s,) = summarise(rows, {rows[0].key: plans})
+    assert s["calibrated_mean"] == pytest.approx(0.6) and s["calibrated_gap_pct"] == pytest.approx(-40.0)
+    (none,) = summarise(rows, {rows[0].key: [dict(p, calibration_covers=False) for p in plans]})
+    assert none["calibrated_mean"] is None
+
+
 def test_row_overrides_change_the_problem_for_that_row_only():
     row = Row("slow", "cem", "models/judge_default", overrides=(("qdot_max", 0.3),))
     assert row.key != Row("fast", "cem", "models/judge_default").key
