@@ -10,7 +10,7 @@ f_max alone), median time per plan, and how the failures failed.
 
     python benchmarks/bench_conditioned.py --n 100 --jobs 2     # the documented table (~6 min on 2 cores)
     python benchmarks/bench_conditioned.py --n 10 --jobs 2      # quick look
-    python benchmarks/bench_conditioned.py --n 100 --jobs 2 --judge-model models/judge_refined \
+    python benchmarks/bench_conditioned.py --n 100 --jobs 2 --judge models/judge_refined \
         --conditioned models/generator_conditioned_refined
 """
 
