@@ -23,7 +23,7 @@ from judgeopt.judge.train import TrainConfig, train_judge
 
 torch.set_num_threads(1)
 REPO = Path(__file__).resolve().parents[2]
-OLD_FILES = ["models/judge_refined_lstm", "models/judge_lab", "models/judge_ensemble/member_0"]
+OLD_FILES = ["models/judge_refined", "models/judge_lab", "models/judge_ensemble/member_0"]
 
 
 @pytest.fixture(scope="module")
@@ -245,7 +245,7 @@ def test_cli_train_tcn_and_inspect(scoop_slice, tmp_path, capsys):
     assert main(["inspect", str(out)]) == 0
     text = capsys.readouterr().out
     assert "network        : tcn: TCN 2 x 8" in text and "backends torch, torch32, l4casadi" in text
-    old = inspect(REPO / "models" / "judge_refined_lstm")  # written before architectures had names
+    old = inspect(REPO / "models" / "judge_refined")  # written before architectures had names
     assert old["arch"] == "lstm" and old["config"]["arch"] == "lstm" and old["network"].startswith("LSTM 2 x 100")
 
 

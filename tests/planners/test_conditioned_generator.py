@@ -173,7 +173,7 @@ def test_solve_with_a_freshly_trained_conditioned_generator(tmp_path, capsys):
 
 @pytest.mark.parametrize("name, judge_name", [("generator_conditioned", "judge_default"),
                                               ("generator_conditioned_refined", "judge_refined"),
-                                              ("generator_conditioned_refined_lstm", "judge_refined_lstm")])
+                                              ("generator_conditioned_refined_tcn", "judge_refined_tcn")])
 def test_shipped_conditioned_generator_obeys_each_plans_limits(name, judge_name):
     """On 200 environments with limits drawn from its ranges, every plan holds its own q̇_max,
     f_min, f_max to the soft tolerance, and ends at the object."""

@@ -14,7 +14,7 @@ from judgeopt.planners.problem import Problem, ProblemError, load_problem
 PROBLEMS = REPO / "judgeopt" / "tasks" / "scoop" / "problems"
 ENV = {"y_obj": 0.25, "mu": 3.0}
 #: high friction, and a min-jerk guess pressing with 12.5 N: a guess the judge calls a failure
-HARD = Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, judge="models/judge_refined_lstm")
+HARD = Problem(qdot_max=0.4, f_min=5.0, f_max=20.0, judge="models/judge_refined")
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +22,7 @@ def judge():
     from judgeopt.judge.store import load_judge
 
     # an LSTM judge: its CasADi graph ("native") has the exact Hessian the tests compare against
-    return load_judge(REPO / "models" / "judge_refined_lstm")[0]
+    return load_judge(REPO / "models" / "judge_refined")[0]
 
 
 @pytest.fixture(scope="module")
@@ -89,7 +89,7 @@ def test_derivatives_given_to_ipopt_are_casadis_own_but_the_judges_curvature(jud
     derivatives; hess_lag equals CasADi's exact Hessian of the Lagrangian once the judge's
     curvature is taken out (its multiplier set to 0 under "target"; under log_p the judge's
     Hessian replaced by its Gauss-Newton term, checked at a point where p (1 - p) is not 0)."""
-    problem = load_problem(PROBLEMS / "paper_sim.toml").with_overrides(judge="models/judge_refined_lstm",
+    problem = load_problem(PROBLEMS / "paper_sim.toml").with_overrides(judge="models/judge_refined",
                                                                          objective=objective)
     planner = DirectPlanner(problem, judge, native)
     solver = planner.solver

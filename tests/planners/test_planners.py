@@ -136,7 +136,7 @@ def test_direct_reports_infeasible_without_a_traceback(direct, judge):
     assert r.status == "infeasible" and r.plan is None and "limits.qdot_max" in r.info["conflict"]
 
 
-@pytest.mark.parametrize("stem", ["judge_refined_lstm", "judge_default"])  # an LSTM, and a TCN with many ReLU kinks
+@pytest.mark.parametrize("stem", ["judge_refined", "judge_default"])  # an LSTM, and a TCN with many ReLU kinks
 def test_direct_p_min_constraint(stem):
     from judgeopt.judge.casadi_fn import build_casadi_judge
     from judgeopt.judge.store import load_judge
@@ -155,7 +155,7 @@ def test_direct_p_min_constraint(stem):
     # the TCN's first round runs out of iterations just short of its step: another round, not "out of reach"
     assert 0.9 - 1e-6 <= held.predicted_success <= 0.91
     assert held.max_constraint_violation < 1e-6
-    if stem == "judge_refined_lstm":  # a smooth enough judge: Ipopt's own tolerance met too
+    if stem == "judge_refined":  # a smooth enough judge: Ipopt's own tolerance met too
         assert held.status == "solved"
 
 

@@ -24,7 +24,7 @@ ENV = {"y_obj": 0.2, "mu": 2.0}
 
 @pytest.fixture(scope="module")
 def judge():
-    return load_judge(ROOT / "models" / "judge_refined_lstm")[0]  # an LSTM: the native graph below
+    return load_judge(ROOT / "models" / "judge_refined")[0]  # an LSTM: the native graph below
 
 
 @pytest.fixture(scope="module")
