@@ -281,19 +281,22 @@ def format_model_info(info: dict[str, Any]) -> str:
     acc = lambda v: "-" if v is None else f"{v:.4f}"  # noqa: E731
     td = info.get("train_data") or {}
     replays = f", {td['planner_outcomes']} replayed plans x{td.get('weight')}" if td.get("planner_outcomes") else ""
-    made = (f"{info['command']}  (seed {info['seed']}, {(info['training_seconds'] or 0):.0f} s)" if info["command"]
-            else f"{info['source']}, continuing {info['fine_tuned_from']}")
+    if info["command"]:
+        made = f"{info['command']}  (seed {info['seed']}, {(info['training_seconds'] or 0):.0f} s)"
+    else:  # a refined judge: the refinement round, and the judge it continued
+        made = ", continuing ".join(str(v) for v in (info["source"], info["fine_tuned_from"]) if v)
     return "\n".join([
-        f"{info['path']}  (judge, judgeopt {info['package_version']}, {info['created']})",
+        f"{info['path']}  (judge, judgeopt {info['package_version']}" + (f", {info['created']})" if info["created"] else ")"),
         f"  network        : {info['arch']}: {info['network']}, {info['parameters']} parameters",
         f"  CasADi         : backends {', '.join(info['casadi_backends'])}",
         f"  reads          : {', '.join(c['channels'])} over N = {c['horizon']} steps of {c['dt']} s; "
         f"env {', '.join(c['env_names'])}" + ("  (trained on INVERTED labels)" if info["invert_labels"] else ""),
         f"  accuracy       : validation {acc(info['val_accuracy'])}, test {acc(info['test_accuracy'])} "
         f"(best epoch {info['best_epoch']})",
-        f"  trained on     : {td.get('path')} (n = {td.get('n')}, sha256 {str(td.get('sha256'))[:12]}...{replays})",
-        f"  made by        : {made}",
-    ] + ([f"  installed from : {info['installed_from']}"] if info["installed_from"] else []))
+        f"  trained on     : {td.get('path')} (" + (f"n = {td['n']}, " if td.get("n") else "")
+        + f"sha256 {str(td.get('sha256'))[:12]}...{replays})",
+    ] + ([f"  made by        : {made}"] if made else [])
+      + ([f"  installed from : {info['installed_from']}"] if info["installed_from"] else []))
 
 
 def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:

@@ -50,6 +50,20 @@ def test_inspect_shows_what_made_an_imported_dataset_and_never_none(tmp_path, ca
     assert "None" not in text and "made by" not in text
 
 
+def test_inspect_says_how_a_refined_judge_was_made_and_never_none(capsys):
+    """A judge made by `refine` has no training command: inspect names the round, the judge it
+    continued and the replayed plans it saw, as its JSON records them."""
+    from judgeopt.files import resolve
+
+    meta = json.loads(resolve("models/judge_refined.json").read_text())
+    assert main(["inspect", "models/judge_refined"]) == 0
+    text = capsys.readouterr().out
+    assert "None" not in text
+    assert f"made by        : {meta['source']}, continuing {meta['fine_tuned_from']}" in text
+    assert f"{meta['train_data']['planner_outcomes']} replayed plans x{meta['train_data']['weight']}" in text
+    assert f"installed from : {meta['installed_from']}" in text
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [
