@@ -29,6 +29,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     import torch
 
     from judgeopt.data.dataset import DatasetError, concatenate, load
+    from judgeopt.judge.archs import DEFAULT_ARCH
     from judgeopt.judge.evaluate import evaluate_judge, judge_inputs
     from judgeopt.judge.model import JudgeConfig, JudgeError
     from judgeopt.files import sha256_file
@@ -40,6 +41,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
         out = out.with_suffix("")
     refuse_overwrite(model_paths(out), args.overwrite)
     init, init_meta = _init_judge(args) if args.init else (None, None)
+    args.arch = args.arch or DEFAULT_ARCH  # None until here: an --arch given with --init is refused, even lstm
     given = arch_settings(args)  # a bad --arch or --set before any data is read
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     parts = [load(p) for p in args.train]
@@ -126,7 +128,6 @@ def _init_judge(args: argparse.Namespace):
     """The judge --init names, loaded; its architecture is the one trained, so --set and another
     --arch or --env-names would be ignored: refused in one line instead."""
     from judgeopt.files import resolve
-    from judgeopt.judge.archs import DEFAULT_ARCH
     from judgeopt.judge.store import JudgeFileError, load_judge
 
     try:
@@ -135,7 +136,7 @@ def _init_judge(args: argparse.Namespace):
         raise CLIError(f"--init {args.init}: {exc}", ExitCode.BAD_INPUT) from None
     kept = init.config
     shorthands = any(getattr(args, key, None) is not None for key in ARCH_OPTIONS)
-    if args.set or shorthands or args.arch not in (DEFAULT_ARCH, kept.arch) or (
+    if args.set or shorthands or args.arch not in (None, kept.arch) or (
             args.env_names and tuple(args.env_names) != tuple(kept.env_names)):
         raise CLIError(f"--init {args.init}: its architecture ({kept.arch}) and environment variables "
                        f"({','.join(kept.env_names)}) are kept: drop --arch, --set and --env-names", ExitCode.BAD_INPUT)
@@ -326,8 +327,8 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.add_argument("--with-commands", action="store_true",
                    help="also learn each simulated demonstration from its command, the input planners give the judge")
     from judgeopt.judge.archs import ARCHS, DEFAULT_ARCH, arch_fields
-    t.add_argument("--arch", default=DEFAULT_ARCH, metavar="NAME",
-                   help=f"network architecture: {', '.join(ARCHS)} (judgeopt/judge/archs/)")
+    t.add_argument("--arch", metavar="NAME",
+                   help=f"network architecture: {', '.join(ARCHS)} (judgeopt/judge/archs/; default {DEFAULT_ARCH})")
     t.add_argument("--set", action="append", metavar="FIELD=VALUE",
                    help="one of the architecture's fields (default: its dataclass's); "
                    + "; ".join(f"{a}: {', '.join(arch_fields(a))}" for a in ARCHS))

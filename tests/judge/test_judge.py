@@ -438,7 +438,9 @@ def test_cli_init_continues_a_judge_and_keeps_what_it_was_trained_with(tmp_path,
     assert b_meta["normalization"] == a["normalization"]
     assert b_meta["init"]["weights_sha256"] == a["weights_sha256"] != b_meta["weights_sha256"]
     capsys.readouterr()
-    for extra in (["--set", "tcn_channels=8"], ["--arch", "lstm", "--lstm-units", "4"], ["--env-names", "mu"]):
+    # "--arch lstm" alone: the default's own name, once silently ignored
+    for extra in (["--set", "tcn_channels=8"], ["--arch", "lstm"], ["--arch", "lstm", "--lstm-units", "4"],
+                  ["--env-names", "mu"]):
         assert main(["train-judge", "--train", str(more), "--out", str(tmp_path / "m"), "--init", str(tmp_path / "j"),
                      *extra, *common]) != 0
         err = capsys.readouterr().err.strip()
