@@ -317,6 +317,21 @@ def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: Prob
 
 
 # -- train-generator -------------------------------------------------------------------------
+
+def margin_shifts(given: list[tuple[str, str]], problem: Problem) -> tuple[tuple[str, float], ...]:
+    """--margin NAME=DELTA, checked against the problem's environment variables."""
+    out = []
+    for name, value in given:
+        if name not in problem.env_names:
+            raise CLIError(f"--margin {name}={value}: {name} is not an environment variable of this problem "
+                           f"(it has {', '.join(problem.env_names)})")
+        try:
+            out.append((name, float(value)))
+        except ValueError:
+            raise CLIError(f"--margin {name}={value}: DELTA must be a number, e.g. {name}=0.03") from None
+    return tuple(out)
+
+
 def cmd_train_generator(args: argparse.Namespace) -> int:
     import numpy as np
     import torch
@@ -349,7 +364,8 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
         print(f"judgeopt train-generator: warning: {note}", file=sys.stderr)
     torch.set_num_threads(args.threads or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
-                              threads=args.threads, progress=not args.quiet)
+                              threads=args.threads, progress=not args.quiet, margin=margin_shifts(args.margin, problem),
+                              margin_weight=args.margin_weight)
     loss_judge, pessimistic = judge, None
     if problem.ensemble:  # train against the ensemble's pessimistic score instead of the one judge
         from judgeopt.judge.ensemble import PessimisticJudge, load_ensemble
@@ -468,6 +484,11 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--init", metavar="GENERATOR", help="fine-tune this generator instead of starting from scratch")
     t.add_argument("--batch", type=positive, default=100, help="environments per epoch")
     t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate")
+    t.add_argument("--margin", type=env_assignment, action="append", default=[], metavar="NAME=DELTA",
+                   help="also ask the judge to pass each plan with this environment variable shifted by DELTA "
+                   "(the world unlike the one told, e.g. y_obj=0.03: the object 3 cm further); repeatable")
+    t.add_argument("--margin-weight", type=float, default=1.0, metavar="X",
+                   help="weight of each --margin term, relative to P (default 1)")
     c = t.add_argument_group("conditioned generator", "one generator for any q̇_max, f_min, f_max in ranges: the "
                              "limits are extra inputs, drawn per training trajectory (uniform)")
     c.add_argument("--conditioned", action="store_true",

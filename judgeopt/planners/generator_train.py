@@ -39,13 +39,21 @@ class GeneratorTrainConfig:
     seed: int = 0
     threads: int = 0
     progress: bool = True
+    # margin: environment shifts ((name, delta), ...) under which the judge must also call each plan a
+    # success, e.g. (("y_obj", 0.03),): the object 3 cm further than told. Each adds margin_weight * P
+    # times -log p of the plan in the shifted environment (clipped to the problem's range).
+    margin: tuple[tuple[str, float], ...] = ()
+    margin_weight: float = 1.0
 
 
 def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
-                   limits: torch.Tensor | None = None) -> tuple[torch.Tensor, dict[str, float]]:
+                   limits: torch.Tensor | None = None, margin: tuple[tuple[str, float], ...] = (),
+                   margin_weight: float = 1.0) -> tuple[torch.Tensor, dict[str, float]]:
     """Mean over the batch of eqs. (2)-(4) plus smoothing; parts returned for the history.
     `limits`: (B, 3) per-trajectory [q̇_max, f_min, f_max] for a conditioned generator
-    (default: its problem's); the limit penalties use each trajectory's own."""
+    (default: its problem's); the limit penalties use each trajectory's own. `margin`: see
+    GeneratorTrainConfig; the plan (and its end at the told environment) is unchanged, only the
+    environment the judge is told differs, so the plan must also succeed where the world differs."""
     pr = gen.problem
     lim = gen.condition(limits, env.shape[0])
     x = gen.rollout(env, lim)
@@ -63,6 +71,13 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
     cols = [pr.env_names.index(k) for k in judge.config.env_names]
     logit = judge(x, env[:, cols])
     l1 = pr.P * F.softplus(-logit)
+    l_margin = torch.zeros_like(l1)
+    for name, delta in margin:
+        k = pr.env_names.index(name)
+        lo, hi = pr.env_range(name)
+        shifted = env.clone()
+        shifted[:, k] = torch.clamp(env[:, k] + delta, lo, hi)
+        l_margin = l_margin + margin_weight * pr.P * F.softplus(-judge(x, shifted[:, cols]))
     limits = ((F.relu(v[:, 1:] - qdot_max) ** 2 + F.relu(qdot_min - v[:, 1:]) ** 2
                + F.relu(q[:, 1:] - q_max) ** 2 + F.relu(q_min - q[:, 1:]) ** 2).sum((1, 2))
               + (F.relu(f - f_max) ** 2 + F.relu(f_min - f) ** 2).sum((1, 2)))
@@ -76,8 +91,8 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
     acc = torch.diff(v, dim=1) / pr.dt
     smooth = (pr.acc_weight * pr.dt * (acc ** 2).sum((1, 2))
               + pr.force_rate_weight * (torch.diff(f, dim=1) ** 2).sum((1, 2)) / pr.dt)
-    loss = (l1 + pr.Q * limits + pr.R * terminal + smooth).mean()
-    parts = {"loss": loss.item(), "L1": l1.mean().item(), "limits": limits.mean().item(),
+    loss = (l1 + l_margin + pr.Q * limits + pr.R * terminal + smooth).mean()
+    parts = {"loss": loss.item(), "L1": l1.mean().item(), "margin": l_margin.mean().item(), "limits": limits.mean().item(),
              "terminal": terminal.mean().item(), "p_mean": torch.sigmoid(logit).mean().item()}
     return loss, parts
 
@@ -119,7 +134,7 @@ def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | No
         env = torch.tensor(problem.sample_env(rng, tc.batch), dtype=torch.float32)
         lim = None if conditioned is None else torch.tensor(conditioned.sample(rng, tc.batch), dtype=torch.float32)
         opt.zero_grad(set_to_none=True)
-        loss, parts = generator_loss(gen, judge, env, lim)
+        loss, parts = generator_loss(gen, judge, env, lim, tc.margin, tc.margin_weight)
         loss.backward()
         torch.nn.utils.clip_grad_norm_(gen.parameters(), tc.grad_clip)
         opt.step()

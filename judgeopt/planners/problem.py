@@ -391,6 +391,11 @@ class Problem:
                 for v in self.environment.values()]
         return np.stack(cols, axis=1)
 
+    def env_range(self, name: str) -> tuple[float, float]:
+        """The range an environment variable is drawn from (a fixed value: that value twice)."""
+        v = self.environment[name]
+        return (float(v[0]), float(v[1])) if isinstance(v, tuple) else (float(v), float(v))
+
     def env_dict(self, env: Any) -> dict[str, float]:
         """A full environment from a mapping or a vector in `env_names` order, checked."""
         if isinstance(env, dict):

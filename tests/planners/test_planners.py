@@ -171,6 +171,38 @@ def test_generator_numpy_plan_equals_torch_rollout():
     assert dynamics_residual(plan.y, plan.ydot, plan.dt) < 1e-12
 
 
+def test_the_margin_term_is_the_judges_loss_in_the_shifted_world_clipped_to_the_range(judge):
+    """--margin y_obj=D adds P * softplus(-logit) of the same plans told y_obj + D: computed here
+    by hand from the judge; at the top of y_obj's range the shift is clipped, so the term equals
+    the nominal one."""
+    import torch.nn.functional as F
+
+    p = Problem(qdot_max=0.4)
+    g = Generator(p)
+    lo, hi = p.env_range("y_obj")
+    env = torch.tensor([[0.15, 2.0], [0.20, 1.5], [hi, 3.0]], dtype=torch.float32)
+    shifted = env.clone()
+    shifted[:, 0] = torch.clamp(env[:, 0] + 0.03, lo, hi)
+    with torch.no_grad():
+        x = g.rollout(env)
+        base, parts0 = generator_loss(g, judge, env)
+        with_margin, parts = generator_loss(g, judge, env, margin=(("y_obj", 0.03),), margin_weight=2.0)
+        by_hand = 2.0 * p.P * F.softplus(-judge(x, shifted))
+        nominal = p.P * F.softplus(-judge(x, env))
+    assert parts0["margin"] == 0.0
+    assert with_margin.item() == pytest.approx(base.item() + by_hand.mean().item(), rel=1e-5)
+    assert by_hand[2].item() == pytest.approx(2.0 * nominal[2].item(), rel=1e-6)  # clipped: no shift at the top
+    assert by_hand[0].item() != pytest.approx(2.0 * nominal[0].item(), rel=1e-3)  # a real shift elsewhere
+
+
+def test_train_generator_margin_bad_input_is_one_line(capsys):
+    for bad, message in ((["--margin", "zeta=0.03"], "zeta is not an environment variable of this problem"),
+                         (["--margin", "y_obj=far"], "DELTA must be a number")):
+        assert main(["train-generator", "--out", "x", "--epochs", "1", *bad]) != 0
+        err = capsys.readouterr().err.strip()
+        assert message in err and len(err.splitlines()) == 1, err
+
+
 def test_generator_training_lowers_the_loss_and_is_seeded(judge, tmp_path):
     p = Problem(qdot_max=0.4)
     tc = GeneratorTrainConfig(epochs=40, batch=16, seed=3, threads=1, progress=False)
