@@ -195,6 +195,18 @@ def test_the_margin_term_is_the_judges_loss_in_the_shifted_world_clipped_to_the_
     assert by_hand[0].item() != pytest.approx(2.0 * nominal[0].item(), rel=1e-3)  # a real shift elsewhere
 
 
+def test_fine_tuning_uses_the_loss_weights_asked_for_not_the_initial_generators(judge):
+    """train-generator --init G --R 10000 once trained with G's own R (1000) and recorded it."""
+    p = Problem(qdot_max=0.4)
+    tc = GeneratorTrainConfig(epochs=2, batch=8, seed=0, threads=1, progress=False)
+    g0, _ = train_generator(p, judge, tc=tc)
+    heavier = p.with_overrides(R=10 * p.R)
+    g1, h1 = train_generator(heavier, judge, tc=tc, init=g0)
+    g2, h2 = train_generator(p, judge, tc=tc, init=g0)
+    assert (g1.problem.R, g2.problem.R) == (10 * p.R, p.R)
+    assert h1[-1]["loss"] != pytest.approx(h2[-1]["loss"], rel=1e-6)
+
+
 def test_train_generator_margin_bad_input_is_one_line(capsys):
     for bad, message in ((["--margin", "zeta=0.03"], "zeta is not an environment variable of this problem"),
                          (["--margin", "y_obj=far"], "DELTA must be a number")):
