@@ -92,8 +92,9 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
     smooth = (pr.acc_weight * pr.dt * (acc ** 2).sum((1, 2))
               + pr.force_rate_weight * (torch.diff(f, dim=1) ** 2).sum((1, 2)) / pr.dt)
     loss = (l1 + l_margin + pr.Q * limits + pr.R * terminal + smooth).mean()
-    parts = {"loss": loss.item(), "L1": l1.mean().item(), "margin": l_margin.mean().item(), "limits": limits.mean().item(),
-             "terminal": terminal.mean().item(), "p_mean": torch.sigmoid(logit).mean().item()}
+    parts = {"loss": loss.item(), "L1": l1.mean().item(), "margin": l_margin.mean().item(),
+             "limits": limits.mean().item(), "terminal": terminal.mean().item(),
+             "p_mean": torch.sigmoid(logit).mean().item()}
     return loss, parts
 
 
