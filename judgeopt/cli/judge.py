@@ -30,6 +30,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
 
     from judgeopt.data.dataset import DatasetError, concatenate, load
     from judgeopt.judge.archs import DEFAULT_ARCH
+    from judgeopt.judge.data_ranges import env_ranges_in, env_ranges_of, union
     from judgeopt.judge.evaluate import evaluate_judge, judge_inputs
     from judgeopt.judge.model import JudgeConfig, JudgeError
     from judgeopt.files import sha256_file
@@ -93,7 +94,10 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
                        "env_names": list(train_ds.env_names),
                        # what the judge has seen, per channel: planning outside it is extrapolation (coverage_notes)
                        "ranges": {c: [float(train_ds.responses[:, :, k].min()), float(train_ds.responses[:, :, k].max())]
-                                  for k, c in enumerate(train_ds.channels)}},
+                                  for k, c in enumerate(train_ds.channels)},
+                       # and per environment variable, over every --train file (and what an --init judge
+                       # learnt from): asked about a world outside them, its p is a guess (data_ranges.outside_data)
+                       "env_ranges": union(env_ranges_of(train_ds), env_ranges_in(init_meta or {}))},
         "test_data": ({"path": str(args.test), "sha256": sha256_file(args.test), "n": test_ds.n,
                        "success_ratio": test_ds.success_ratio()} if test_ds is not None else None),
         "train_config": result.config,
@@ -245,6 +249,7 @@ def _json_safe(v: Any) -> Any:
 def inspect_model(path: str | os.PathLike) -> dict[str, Any]:
     """A saved judge's metadata, validated by loading the weights too."""
     from judgeopt.judge.casadi_fn import backends_for
+    from judgeopt.judge.data_ranges import describe, env_ranges_in, limit_ranges_in
     from judgeopt.judge.store import load_judge
 
     model, meta = load_judge(resolve(path, (".json",)))
@@ -264,6 +269,10 @@ def inspect_model(path: str | os.PathLike) -> dict[str, Any]:
         "best_epoch": metrics.get("best_epoch"),
         "training_seconds": meta.get("training_seconds"),
         "train_data": meta.get("train_data"),
+        # what it learnt from (judgeopt.judge.data_ranges): outside these its p is a guess; {} in older files
+        "env_ranges": {k: list(v) for k, v in env_ranges_in(meta).items()},
+        "limit_ranges": {k: list(v) for k, v in limit_ranges_in(meta).items()},
+        "data_ranges": describe(meta),
         "test_data": meta.get("test_data"),
         "command": meta.get("command"),
         "source": meta.get("source"),  # refined judges: the refinement round, and the judge it continued
@@ -296,7 +305,9 @@ def format_model_info(info: dict[str, Any]) -> str:
         f"(best epoch {info['best_epoch']})",
         f"  trained on     : {td.get('path')} (" + (f"n = {td['n']}, " if td.get("n") else "")
         + f"sha256 {str(td.get('sha256'))[:12]}...{replays})",
-    ] + ([f"  made by        : {made}"] if made else [])
+        "  learnt from    : " + (info.get("data_ranges") or "its environment ranges are not recorded (an older file)"),
+    ] + ([f"  ranges from    : {td['env_ranges_source']}"] if td.get("env_ranges_source") else [])
+      + ([f"  made by        : {made}"] if made else [])
       + ([f"  installed from : {info['installed_from']}"] if info["installed_from"] else []))
 
 

@@ -107,6 +107,7 @@ def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: st
                    cfg: EnsembleConfig, threads: int | None = None, progress: bool = True) -> Path:
     """Train (or finish training) the K members; member i: seed + i, its own bootstrap sample."""
     from judgeopt.data.dataset import load
+    from judgeopt.judge.data_ranges import env_ranges_of
     from judgeopt.judge.evaluate import evaluate_judge
     from judgeopt.files import sha256_file
     from judgeopt.judge.train import TrainConfig, train_judge
@@ -127,7 +128,8 @@ def train_ensemble(train_path: str | Path, test_path: str | Path | None, out: st
                 metrics["test_accuracy"] = evaluate_judge(model, test)["accuracy"]
             save_judge(model, out / name, {"source": f"ensemble member {i} of {cfg.k}", "ensemble": asdict(cfg),
                                            "train_data": {"path": str(train_path), "sha256": sha256_file(train_path),
-                                                          "bootstrap_seed": [cfg.seed, i] if cfg.bootstrap else None},
+                                                          "bootstrap_seed": [cfg.seed, i] if cfg.bootstrap else None,
+                                                          "env_ranges": env_ranges_of(data)},  # its own sample's
                                            "training_seconds": result.seconds, "metrics": metrics})
         meta = json.loads((out / f"{name}.json").read_text())
         members.append({"name": name, "weights_sha256": meta["weights_sha256"], "metrics": meta.get("metrics", {})})

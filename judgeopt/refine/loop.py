@@ -173,6 +173,10 @@ def _outcomes(rows: list[dict], problem: Problem, k: int, where: str = "in simul
                    channels=problem.channels, units={c.name: c.unit for c in problem.channel_spec})
 
 
+def _pairs_of(ranges: LimitRanges | None) -> dict[str, tuple[float, float]]:
+    return {} if ranges is None else {k: getattr(ranges, k) for k in CONDITION_NAMES}
+
+
 def _round_figures(rows: list[dict], k: int) -> list[dict]:
     """Per method: success, prediction, and how the verdict (p >= LIKELY) did on the outcomes."""
     from judgeopt.planners.result import LIKELY
@@ -205,6 +209,7 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
     from judgeopt.refine.robot import MANIFEST, read_outcomes
 
     from judgeopt.data.dataset import concatenate, load, save
+    from judgeopt.judge.data_ranges import env_ranges_in, env_ranges_of, limit_ranges_in, union
     from judgeopt.judge.evaluate import evaluate_judge
     from judgeopt.files import sha256_file
     from judgeopt.judge.store import load_judge, save_judge
@@ -255,12 +260,13 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
         figs = _round_figures(rows, k)
         # fine-tune the judge on the demonstrations plus every round's outcomes so far
         data = concatenate([base] + [a for a in aggregated for _ in range(cfg.weight)])
-        init, _ = load_judge(judge)
+        init, init_meta = load_judge(judge)
         # one torch thread: the planning workers may still hold the other cores, and two threads
         # fighting over one core made an epoch 8x slower here
         tc = TrainConfig(epochs=cfg.judge_epochs, lr=cfg.judge_lr, seed=cfg.seed + k, threads=1, progress=progress)
         model, result = train_judge(data, test, tc=tc, init=init)
         new_judge = folder / "judge"
+        limits = union(limit_ranges_in(init_meta), _pairs_of(cfg.limit_ranges))
         metrics = {"val_accuracy": result.best["val_accuracy"], "best_epoch": result.best_epoch}
         if test is not None:
             metrics["test_accuracy"] = evaluate_judge(model, test)["accuracy"]
@@ -268,7 +274,11 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
                                       "refine_config": asdict(cfg), "metrics": metrics,
                                       "train_data": {"path": str(train_data), "sha256": sha256_file(train_data),
                                                      "planner_outcomes": int(sum(a.n for a in aggregated)),
-                                                     "weight": cfg.weight}})
+                                                     "weight": cfg.weight,
+                                                     # the demonstrations' and every round's environments (and
+                                                     # limits) so far, and those of the judge it continues
+                                                     "env_ranges": union(env_ranges_of(data), env_ranges_in(init_meta)),
+                                                     **({"limit_ranges": limits} if limits else {})}})
         judge = str(new_judge)
         if cfg.generator_epochs > 0:
             generator = str(_fine_tune_generator(problem, judge, generator, folder / "generator", cfg, k, progress))

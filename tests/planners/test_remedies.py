@@ -45,6 +45,11 @@ def test_ensemble_trains_resumes_and_checks_its_members(tmp_path):
     out = train_ensemble(small, None, tmp_path / "ens", EnsembleConfig(k=2, epochs=1), progress=False)
     members, meta = load_ensemble(out)
     assert len(members) == 2 and meta["members"][0]["weights_sha256"] != meta["members"][1]["weights_sha256"]
+    from judgeopt.judge.data_ranges import env_ranges_of
+
+    for i in (0, 1):  # each member records the environments of its own bootstrap sample
+        sample = load(small).subset(np.random.default_rng([0, i]).integers(0, 300, 300))
+        assert json.loads((out / f"member_{i}.json").read_text())["train_data"]["env_ranges"] == env_ranges_of(sample)
     stamp = (out / "member_0.pt").stat().st_mtime_ns
     train_ensemble(small, None, out, EnsembleConfig(k=2, epochs=1), progress=False)  # resumes: nothing retrained
     assert (out / "member_0.pt").stat().st_mtime_ns == stamp

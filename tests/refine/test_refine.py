@@ -9,6 +9,7 @@ import pytest
 
 from judgeopt.files import REPO, resolve
 from judgeopt.data.dataset import load
+from judgeopt.judge.store import load_meta as load_judge_meta
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.refine.loop import RefineConfig, install, refine
 
@@ -39,6 +40,13 @@ def test_one_round_aggregates_fine_tunes_resumes_and_installs(tmp_path):
     summary = json.loads((tmp_path / "out" / "round_1" / "summary.json").read_text())
     meta = json.loads(Path(summary["judge"] + ".json").read_text())
     assert meta["fine_tuned_from"].endswith("judge_default") and meta["train_data"]["planner_outcomes"] == 2
+    # the environments it learnt from: the demonstrations', the round's (within them) and its starting judge's
+    from judgeopt.judge.data_ranges import env_ranges_of, union
+
+    envs = union(env_ranges_of(load(ROOT / "data" / "train.h5")), env_ranges_of(outcomes),
+                 load_judge_meta(ROOT / "models" / "judge_default")["train_data"]["env_ranges"])
+    assert meta["train_data"]["env_ranges"] == envs == {"y_obj": [0.1, 0.28], "mu": [1.0, 3.0]}
+    assert "limit_ranges" not in meta["train_data"]  # no limits sampled, none recorded
     # a rerun finds the round finished and recomputes nothing
     (tmp_path / "out" / "round_1" / "partial").rename(tmp_path / "moved")
     assert refine(*args, n_jobs=1, progress=False) == figs
@@ -92,3 +100,8 @@ def test_a_round_with_sampled_limits_plans_each_environment_under_its_own(tmp_pa
     judge_meta = json.loads((tmp_path / "round_1" / "judge.json").read_text())
     # the recorded configuration gives the same ranges back (a resumed or repeated run samples the same limits)
     assert RefineConfig(limit_ranges=judge_meta["refine_config"]["limit_ranges"]).limit_ranges == WIDE_LIMITS
+    # what the judge learnt under (judgeopt.judge.data_ranges): these limits, its starting judge's had none
+    from judgeopt.judge.data_ranges import limit_ranges_in
+
+    assert limit_ranges_in(judge_meta) == {k: tuple(v) for k, v in WIDE_LIMITS.to_dict().items()}
+    assert judge_meta["train_data"]["limit_ranges"] == {k: list(v) for k, v in WIDE_LIMITS.to_dict().items()}
