@@ -5,17 +5,18 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 from pathlib import Path
 from typing import Any
 
 from judgeopt.cli.common import (CLIError, QUIET, env_range, floats, jobs_option, name_values, out_option, positive,
-                                 seed_option)
+                                 seed_option, value_range)
 
 def _table_names() -> list[str]:
     """`planners`, `sweep`, `robustness` and every task's own tables (the scoop's table4, table5, compare)."""
     from judgeopt.tasks import get_task, task_names
 
-    return ["planners", "sweep", "robustness", "trials"] + sorted({name for t in task_names() for name in get_task(t).tables()})
+    return ["planners", "sweep", "edge", "robustness", "trials"] + sorted({name for t in task_names() for name in get_task(t).tables()})
 
 
 def _default_problem(table: str) -> str:
@@ -42,12 +43,20 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
     if args.perturb and args.table != "robustness":
         raise CLIError("--perturb: only for `judgeopt evaluate robustness`")
-    if args.qdot_max and args.table not in ("robustness", "trials"):
-        raise CLIError("--qdot-max: only for `judgeopt evaluate robustness` and `trials`")
+    if args.qdot_max and args.table not in ("robustness", "trials", "edge"):
+        raise CLIError("--qdot-max: only for `judgeopt evaluate robustness`, `trials` and `edge`")
+    given = [o for o, v in (("--edge-limit", args.edge_limit), ("--edge-span", args.edge_span),
+                            ("--offsets", args.offsets)) if v is not None]
+    if given and args.table != "edge":
+        raise CLIError(f"{', '.join(given)}: only for `judgeopt evaluate edge`")
+    if args.edge_span is not None and not args.edge_span[0] < args.edge_span[1]:
+        raise CLIError(f"--edge-span {args.edge_span[0]:g},{args.edge_span[1]:g}: need LO < HI")
     if args.trials is not None and args.table != "trials":
         raise CLIError("--trials: only for `judgeopt evaluate trials`")
     if args.table == "sweep":
         return cmd_sweep(args)
+    if args.table == "edge":
+        return cmd_edge(args)
     if args.table == "robustness":
         return cmd_robustness(args)
     if args.table == "trials":
@@ -122,6 +131,43 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     title = f"Held-out limit sets ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
     md = markdown_sweep(summary, title)
     return _report(args, out / "sweep", md, summary, plot_sweep(summary, title), notes)
+
+
+def cmd_edge(args: argparse.Namespace) -> int:
+    from judgeopt.evaluate.edge import EdgeConfig, markdown_edge, plot_edge, run_edge, summarise_edge
+    from judgeopt.planners.calibration import calibrate_rows
+    from judgeopt.planners.result import reassess
+
+    base = _problem(args)
+    vary = _vary(base, args.vary) if args.vary else None
+    cfg = EdgeConfig(**{k: v for k, v in (("limit", args.edge_limit), ("span", args.edge_span),
+                                          ("offsets", args.offsets)) if v is not None})
+    methods = tuple(args.methods or ("amortized", "direct"))
+    out = Path(args.out or "out/evaluate/edge")
+    calibrators = _calibrators(base, args.calibration)  # a bad file fails here, before any planning
+    rows = []
+    for q in args.qdot_max or (None,):
+        problem = base if q is None else base.with_overrides(qdot_max=q)
+        rows += run_edge(problem, cfg, methods, args.n, args.seed, out, vary, n_jobs=args.jobs,
+                         scheduler=args.scheduler, chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
+    for r in rows:  # with the calibration there is now (cached plans may predate it)
+        r.pop("calibrated_success", None)
+        r.pop("calibration_covers", None)
+    calibrate_rows(rows, calibrators, base.env_names)
+    reassess(rows)
+    summary = summarise_edge(rows, methods)
+    speeds = ", ".join(f"{q:g}" for q in args.qdot_max) if args.qdot_max else f"{base.qdot_max:g}"
+    env = _env_text(base) if vary is None else _env_text(base.with_overrides(**{vary[0]: list(vary[1])}))
+    title = (f"Where outcomes flip: {base.name}, q̇_max {speeds}, {cfg.limit} around the edge found ({env}; seed "
+             f"{args.seed}; judge {base.judge})")
+    command = "judgeopt evaluate " + " ".join(_argv(args))
+    stem = out / "edge"
+    from judgeopt.files import atomic_write
+
+    atomic_write(stem.with_suffix(".json"), json.dumps(summary, indent=1) + "\n")
+    print(f"wrote {stem.with_suffix('.json')}")
+    per = [{k: v for k, v in s.items() if k != "reliability"} for s in summary["planners"]]
+    return _report(args, stem, markdown_edge(summary, title, command), per, plot_edge(summary, rows, title), [])
 
 
 def _report(args: argparse.Namespace, stem: Path, md: str, summary: list[dict], figure, notes: list[str]) -> int:
@@ -253,6 +299,9 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra += (["--perturb", *(n if v is None else f"{n}={','.join(f'{x:g}' for x in v)}" for n, v in args.perturb)]
               if args.perturb else []) + (["--qdot-max", ",".join(f"{q:g}" for q in args.qdot_max)] if args.qdot_max else [])
     extra += ["--trials", str(args.trials)] if args.trials else []
+    extra += (["--edge-limit", args.edge_limit] if args.edge_limit else []) + (
+        [f"--edge-span {args.edge_span[0]:g},{args.edge_span[1]:g}"] if args.edge_span else []) + (
+        ["--offsets " + ",".join(f"{x:g}" for x in args.offsets)] if args.offsets else [])
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
@@ -295,13 +344,16 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     kept = load_calibration(out) if out.exists() and not args.replace else {}
     kept = {k: v for k, v in kept.items() if k not in fitted}
     save_calibration(out, {**kept, **fitted})
-    print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss (of the constant rate) |")
+    print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss: monotone map "
+          "(unconstrained logistic / isotonic on the judge / constant rate) |")
     print("|---|---|---|---|---|---|")
     for c in fitted.values():
         d = describe(c)
         ranges = ", ".join(f"{k} [{lo:g}, {hi:g}]" for k, (lo, hi) in d["ranges"].items())
+        others = " / ".join(f"{c.alternatives[k]:.3f}" for k in ("logistic_unconstrained", "isotonic_judge_only")
+                            if k in c.alternatives)
         print(f"| {c.setting} | {d['description']} | {c.n} | {d['success_pct']:.0f} % | {ranges} "
-              f"| {d['cv_log_loss']:.3f} ({d['constant_log_loss']:.3f}){' -> the rate' if c.constant else ''} |")
+              f"| {d['cv_log_loss']:.3f} ({others} / {d['constant_log_loss']:.3f}){' -> the rate' if c.constant else ''} |")
     print(f"wrote {out} ({len(fitted)} settings fitted, {len(kept)} kept from before)")
     return 0
 
@@ -332,6 +384,12 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"))
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")
+    e.add_argument("--edge-limit", metavar="NAME", help="edge: the limit bisected to find where outcomes flip "
+                   "(default f_max; q̇_max and f_min too)")
+    e.add_argument("--edge-span", type=value_range, metavar="LO,HI", help="edge: where to look for the edge (default: "
+                   "the task's wide range of the limit)")
+    e.add_argument("--offsets", type=floats, metavar="D1,D2,...", help="edge: settings planned at the edge plus each "
+                   "offset towards the easier side, in the limit's units (default -2,-1,-0.5,0,0.5,1,2)")
     e.add_argument("--perturb", nargs="+", type=name_values, metavar="NAME[=V1,V2]",
                    help="robustness: the perturbations to replay under, each at the task's values or the ones given "
                    "(default: every one the task declares; `judgeopt tasks --json` lists them)")
@@ -358,9 +416,11 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
 
     c = sub.add_parser("calibrate", help="fit calibrated success predictions from evaluated (replayed) plans",
                        description="For every planner setting (method, models, limits) with at least --min-n "
-                       "replayed outcomes in the given `judgeopt evaluate` folders, fit a logistic map from the "
-                       "judge's logit and the environment to the simulated success; planners then report it as "
-                       "calibrated_success. Evaluate on another --seed to test it.")
+                       "replayed outcomes in the given `judgeopt evaluate` folders (an edge sweep's too), fit a "
+                       "logistic map from the judge's logit and the environment to the simulated success, never "
+                       "falling while the judge's p rises; planners report it as calibrated_success where it covers "
+                       "the plan (near fitted outcomes in limits, environment and judge's p). Evaluate on another "
+                       "--seed to test it.")
     c.add_argument("folders", nargs="+", metavar="DIR", help="evaluation output folders (with partial/*.json)")
     c.add_argument("--out", default="out/calibration.json", metavar="FILE", help="calibration file: its other settings "
                    "are kept unless --replace (the shipped one is models/calibration_default.json)")

@@ -15,6 +15,7 @@ import numpy as np
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, out_option,
                                  positive, seed_option, threads_option, value_range)
 from judgeopt.files import refuse_overwrite
+from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
                                        load_problem)
 
@@ -121,9 +122,8 @@ def _table(results) -> str:
             continue
         viol = f"{r.max_constraint_violation:.1e} ({r.worst_constraint})" if r.max_constraint_violation > 0 else "0"
         t = r.solve_time_s
-        p = f"{r.success_probability:.3f} ({r.probability_source}" + (
-            "; calibration does not cover this)" if r.info.get("calibrated_success") is not None
-            and r.probability_source == "judge" else ")")
+        p = f"{r.success_probability:.3f} " + ("(calibrated)" if r.probability_source == "calibrated" else
+                                               "(judge, uncalibrated)")
         v, f = (r.plan.values[:, r.plan.columns(kind)] for kind in ("velocity", "force"))
         rows.append((r.method, f"{r.predicted_success:.3f}", p, r.verdict, sim, f"{v.max():.3f}",
                      f"{f.min():.1f} to {f.max():.1f}", viol,
@@ -185,7 +185,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
                              casadi_backend=args.casadi_backend)
     if fallback:
         planners.notes.append(fallback)
-    if args.set_calibration and not planners.calibrators:  # asked for by name, and it knows none of these planners
+    if args.set_calibration:  # asked for by name: another judge's is refused
+        from judgeopt.planners.calibration import for_judge
+
+        for_judge(planners.calibration_file, planners.judge_meta["weights_sha256"], args.set_calibration)
+    if args.set_calibration and not planners.calibrators:  # and it knows none of these planners
         fitted = sorted({c.description for c in planners.calibration_file.values()})
         raise ProblemError(f"--calibration {args.set_calibration} has no calibration for these planners (judge "
                            f"{planners.judge_path.name}, these limits); it was fitted for: {'; '.join(fitted) or 'nothing'}."
@@ -225,7 +229,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         files.append(save_figure(plot_plans(problem, results), args.plot))
     infeasible, verdict = report.infeasible, report.verdict
     if args.json:
+        top = report.recommended
         print(json.dumps({"status": "infeasible" if infeasible else "ok", "verdict": verdict,
+                          "recommended": top.method if top is not None else None,
+                          "disagreement": report.disagreement, "outside_judge_data": report.outside,
                           "suggestions": [x.to_json() for x in suggestions], "problem": problem.to_dict(),
                           "environment": env, "judge": str(planners.judge_path),
                           "judge_sha256": planners.judge_meta["weights_sha256"],
@@ -242,6 +249,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
               f"{problem.horizon_time:g} s; environment {envs}")
         for note in planners.notes:
             print(f"note: {note}")
+        for x in report.outside:
+            print(f"note: {x}")
         print(_table(results))
         shown = next((r for r in reversed(results) if r.plan is not None), None)
         if shown is not None:
@@ -257,19 +266,30 @@ def cmd_solve(args: argparse.Namespace) -> int:
                 print(f"{r.method}, simulated: the simulator refused the plan ({r.info['sim_refused']}): a failure")
             elif r.simulated_success is not None:
                 details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
-                print(f"{r.method}, simulated: {task.explain(details)}")
+                print(f"{r.method}, simulated: {'success' if r.simulated_success else 'FAILURE'}: "
+                      f"{task.explain(details)}")
         for r in results:
             if r.method == "receding":
                 print(_replan_rows(r))
-        if any(r.probability_source == "judge" for r in results):
-            print("note: a 'judge' success p is the judge's own score of the plan, not checked against replayed "
-                  "outcomes of this planner setting (fit a calibration with `judgeopt calibrate`)")
+        uncovered = [r.method for r in results if r.probability_source == "judge"
+                     and r.info.get("calibrated_success") is not None]
+        if uncovered:
+            print(f"note: the calibration does not cover the {' and '.join(uncovered)} plan here (limits, "
+                  "environment and judge's p far from the outcomes it was fitted on): its success p is the judge's own")
+        print(f"legend: {LEGEND}" if args.explain else "(judge: the judge's own p; success p: the p judgeopt stands "
+              "behind; --explain says more)")
         for f in files:
             print(f"wrote {f}")
-        if unlikely:
-            top = max((r for r in results if r.verdict is not None), key=lambda r: r.success_probability)
-            print(f"judgeopt solve: no plan is likely to succeed under these limits (best p = "
-                  f"{top.success_probability:.2f}, {top.method})")
+        top = report.recommended
+        if report.disagreement:
+            print(f"note: {report.disagreement}")
+        if verdict == OUTSIDE:
+            print(f"judgeopt solve: the plan to run ({top.method}) is {OUTSIDE}: its p = {top.success_probability:.2f} "
+                  "is the judge's guess where it never learnt; replay it in simulation or on the robot before trusting "
+                  "it, or bring the request inside the judge's ranges (`judgeopt inspect` lists them)")
+        elif unlikely:
+            best = f" (the plan to run: {top.method}, p = {top.success_probability:.2f})" if top is not None else ""
+            print(f"judgeopt solve: no plan is likely to succeed under these limits{best}")
             for x in suggestions:
                 print(f"  {x.text()}")
             if args.suggest:
@@ -277,7 +297,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
                       "  no single limit relaxed within the demonstrations' range (f_max, q̇_max, f_min) makes a plan "
                       "likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
-    return ExitCode.INFEASIBLE if infeasible else ExitCode.UNLIKELY if unlikely else ExitCode.OK
+    return ExitCode.INFEASIBLE if infeasible else ExitCode.OK if verdict == "likely" else ExitCode.UNLIKELY
 
 
 def _assignments(items: list[str] | None) -> dict[str, float]:
@@ -468,6 +488,8 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    help="an environment variable given here as a range (--mu 1.5,2.5: somewhere in here): the direct "
                    "solve plans for the worst case over a grid of it (default) or for the expected success over the "
                    "grid; the other planners plan for its middle")
+    s.add_argument("--explain", action="store_true", help="also print what the table's judge, success p and verdict "
+                   "columns mean")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")

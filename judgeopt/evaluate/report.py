@@ -37,9 +37,9 @@ def reliability(pred: np.ndarray, outcome: np.ndarray, bins=BINS) -> list[dict]:
             for b in range(len(bins) - 1) if (idx == b).any()]
 
 
-def calibration_error(pred: np.ndarray, outcome: np.ndarray) -> float:
+def calibration_error(pred: np.ndarray, outcome: np.ndarray, bins=BINS) -> float:
     """Expected calibration error: the count-weighted |predicted - observed| over the bins."""
-    cells = reliability(pred, outcome)
+    cells = reliability(pred, outcome, bins)
     n = sum(c["n"] for c in cells)
     return float(sum(c["n"] * abs(c["predicted"] - c["observed"]) for c in cells) / n) if n else math.nan
 

@@ -2,12 +2,15 @@
 
 A planner that maximises a judge reports the judge's probability at the optimum, which is
 exactly where the judge is most over-confident (docs/remedies.md: +18 to +48 points). Here,
-per planner *setting* (method, judge, generator and every limit and solver option, but not
-the environment), a small logistic model maps the judge's logit and the environment to the
-probability that the plan succeeds in simulation. It is fitted on outcomes replayed by
-`judgeopt evaluate` (`judgeopt calibrate FOLDER...`) and applied to new plans by every
-planner. It knows only the settings and the environment ranges it was fitted on: another
-setting gets no calibrated value, and environments outside the fitted ranges are flagged.
+per planner setting (method, models and solver options; over limits: with the limits as
+inputs), a logistic map takes the judge's logit and the environment (and limits) to the
+probability that the plan succeeds in simulation. The map never falls while the judge's p
+rises at the same setting (its slope's weights are held >= 0), and it is applied only where
+it *covers* a plan: inside every fitted range and near fitted outcomes in the joint space of
+inputs and the judge's p (docs/remedies.md, "Calibration where outcomes flip"). Elsewhere the
+planner reports the judge's own p, marked uncalibrated. Fitted by `judgeopt calibrate
+FOLDER...` on outcomes replayed by `judgeopt evaluate` (densest where outcomes flip with
+`judgeopt evaluate edge`).
 """
 
 from __future__ import annotations
@@ -17,7 +20,7 @@ import json
 import re
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any, Iterable, Sequence
 
 import numpy as np
 
@@ -25,13 +28,21 @@ from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
 from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 
-FORMAT, VERSION = "judgeopt-calibration", 1
+FORMAT, VERSION = "judgeopt-calibration", 2
 LOGIT_CLIP = 12.0  # a judge saturates; beyond this its logit says nothing more
 L2_GRID = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 1000.0)
+#: a value further than this share of a fitted range's width beyond it is not covered
+RANGE_MARGIN = 0.02
+#: coverage in the joint space of inputs and judge logit: a request is covered when its
+#: NEIGHBOURS-th nearest fitted outcome is no further than that of COVER_QUANTILE of the fitted ones
+NEIGHBOURS = 5
+COVER_QUANTILE = 0.95
+#: at most this many fitted points are kept in the file to judge coverage by (seeded subsample)
+MAX_POINTS = 3000
 
 
 class CalibrationError(ProblemError):
-    """A calibration file that is missing, malformed or from another format."""
+    """A calibration file that is missing, malformed, from another format or for another judge."""
 
 
 def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False) -> str:
@@ -59,67 +70,122 @@ def _logit(p: np.ndarray) -> np.ndarray:
     return np.clip(np.log(p) - np.log1p(-p), -LOGIT_CLIP, LOGIT_CLIP)
 
 
+def _sigmoid(z: np.ndarray) -> np.ndarray:
+    return np.exp(-np.logaddexp(0.0, -z))
+
+
 @dataclass
 class Calibrator:
-    """Logistic regression on [1, judge logit, Gaussian bumps along each environment variable]."""
+    """P(success in simulation) = sigmoid(a(x) + s(x) z), with z the judge's logit and x the
+    inputs (environment, and limits for a calibration over limits); a and s are sums of
+    Gaussian bumps along each input, and every weight of s is >= 0, so the calibrated
+    probability never falls while the judge's rises at the same x. It is trusted only near what
+    it was fitted on, judged in the joint space of x and the judge's p (`covers`)."""
 
     setting: str
     method: str
     description: str
-    env_names: list[str]
+    env_names: list[str]  # the inputs x, by name
     env_low: list[float]
     env_high: list[float]
     bumps: int
-    weights: list[float]
+    weights: list[float]  # [bias, slope, bumps of a..., bumps of s...]
     l2: float
     n: int
     successes: int
     cv_log_loss: float  # 5-fold, at the chosen l2
     base_log_loss: float  # the constant (overall success rate) predictor, same folds
+    points: list[list[float]] = field(default_factory=list)  # fitted (x, judge's p), scaled (`_scaled`)
+    cover_radius: float = 0.0
+    judge_sha256: str | None = None
+    alternatives: dict[str, float] = field(default_factory=dict)  # other maps' CV log loss on the same folds
     fitted_on: list[str] = field(default_factory=list)  # environment fingerprints
     sources: list[str] = field(default_factory=list)
     constant: bool = False  # the map lost to the plain success rate in cross-validation, so it is the rate
 
+    def _varying(self) -> list[int]:
+        return [j for j, (lo, hi) in enumerate(zip(self.env_low, self.env_high)) if hi > lo]
+
+    def basis(self, env: np.ndarray) -> np.ndarray:
+        """Gaussian bumps along each input that varied in the fitted outcomes (width: one spacing)."""
+        env = np.atleast_2d(np.asarray(env, float))
+        width = 1.0 / max(self.bumps - 1, 1)
+        cols = []
+        for j in self._varying():
+            u = (env[:, j] - self.env_low[j]) / (self.env_high[j] - self.env_low[j])
+            cols += [np.exp(-0.5 * ((u - c) / width) ** 2) for c in np.linspace(0, 1, self.bumps)]
+        return np.stack(cols, axis=1) if cols else np.zeros((len(env), 0))
+
     def features(self, env: np.ndarray, predicted: np.ndarray) -> np.ndarray:
         env = np.atleast_2d(np.asarray(env, float))
-        cols = [np.ones(len(env)), _logit(predicted) / LOGIT_CLIP]
-        width = 1.0 / max(self.bumps - 1, 1)
-        for j, (lo, hi) in enumerate(zip(self.env_low, self.env_high)):
-            if hi <= lo:  # a fixed value: nothing to learn along it
-                continue
-            u = (env[:, j] - lo) / (hi - lo)
-            cols += [np.exp(-0.5 * ((u - c) / width) ** 2) for c in np.linspace(0, 1, self.bumps)]
-        return np.stack(cols, axis=1)
+        z = (_logit(predicted) / LOGIT_CLIP)[:, None]
+        b = self.basis(env)
+        return np.hstack([np.ones((len(env), 1)), z, b, z * b])
 
     def predict(self, env: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-        z = self.features(env, predicted) @ np.asarray(self.weights)
-        return 1.0 / (1.0 + np.exp(-z))
+        return _sigmoid(self.features(env, predicted) @ np.asarray(self.weights))
+
+    def _scaled(self, env: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+        """Each varying input on its fitted range's scale (0 to 1), and the judge's p (0 to 1: its
+        saturated logits, 0.99 against 0.9999, are the same verdict; 0.002 against 0.99 are not)."""
+        env = np.atleast_2d(np.asarray(env, float))
+        lo, hi = np.asarray(self.env_low), np.asarray(self.env_high)
+        j = self._varying()
+        return np.hstack([(env[:, j] - lo[j]) / (hi[j] - lo[j]), np.asarray(predicted, float).reshape(-1, 1)])
+
+    def covers(self, env: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+        """Inside every fitted range (RANGE_MARGIN beyond), equal on inputs that never varied, and
+        near fitted outcomes in the joint space of inputs and judge logit."""
+        env = np.atleast_2d(np.asarray(env, float))
+        lo, hi = np.asarray(self.env_low), np.asarray(self.env_high)
+        tol = 1e-9 + RANGE_MARGIN * (hi - lo)
+        inside = np.all((env >= lo - tol) & (env <= hi + tol), axis=1)
+        return inside & (_kth_distance(self._scaled(env, predicted), np.asarray(self.points)) <= self.cover_radius)
 
     def annotate(self, env: dict[str, float], predicted: float) -> dict[str, Any]:
-        """What a plan's result carries: the calibrated success, and whether `env` is in the fitted ranges."""
+        """What a plan's result carries: the calibrated success, and whether the calibration covers it."""
         e = [[env[k] for k in self.env_names]]
-        return {"calibrated_success": float(self.predict(e, [predicted])[0]), "calibration_covers": bool(self.covers(e)[0])}
-
-    def covers(self, env: np.ndarray) -> np.ndarray:
-        env = np.atleast_2d(np.asarray(env, float))
-        tol = 1e-9 + 0.02 * (np.asarray(self.env_high) - np.asarray(self.env_low))
-        return np.all((env >= np.asarray(self.env_low) - tol) & (env <= np.asarray(self.env_high) + tol), axis=1)
+        return {"calibrated_success": float(self.predict(e, [predicted])[0]),
+                "calibration_covers": bool(self.covers(e, [predicted])[0])}
 
 
-def _fit_logistic(X: np.ndarray, y: np.ndarray, l2: float, iters: int = 50) -> np.ndarray:
-    """Newton's method on the L2-penalised log-likelihood (bias not penalised): convex, deterministic."""
-    w = np.zeros(X.shape[1])
+def _kth_distance(query: np.ndarray, points: np.ndarray, k: int = NEIGHBOURS) -> np.ndarray:
+    """Each query's distance to its k-th nearest point."""
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(points).query(query, k=[min(k, len(points))])
+    return d[:, 0]
+
+
+def _kth_distance_to_others(points: np.ndarray, groups: np.ndarray, k: int = NEIGHBOURS) -> np.ndarray:
+    """Each point's distance to its k-th nearest point of *another* group (another planner
+    setting: plans made under the same limits crowd together, and a new request is as far from
+    them as one fitted setting is from the others)."""
+    out = np.empty(len(points))
+    for g in np.unique(groups):
+        mine, others = groups == g, points[groups != g]
+        out[mine] = _kth_distance(points[mine], others, k) if len(others) else np.inf
+    return out
+
+
+def _fit_monotone(X: np.ndarray, y: np.ndarray, l2: float, n_basis: int) -> np.ndarray:
+    """The L2-penalised logistic fit (bias not penalised) with the slope's weights >= 0, by
+    scipy's L-BFGS-B: convex, so deterministic up to its tolerance."""
+    from scipy.optimize import minimize
+
     pen = np.full(X.shape[1], l2)
     pen[0] = 0.0
-    for _ in range(iters):
-        p = 1.0 / (1.0 + np.exp(-(X @ w)))
-        g = X.T @ (p - y) + pen * w
-        H = (X * (p * (1 - p))[:, None]).T @ X + np.diag(pen + 1e-9)
-        step = np.linalg.solve(H, g)
-        w -= step
-        if np.max(np.abs(step)) < 1e-8:
-            break
-    return w
+
+    def loss(w: np.ndarray) -> tuple[float, np.ndarray]:
+        z = X @ w
+        p = _sigmoid(z)
+        value = float(np.sum(np.logaddexp(0.0, z) - y * z) + 0.5 * np.sum(pen * w * w))
+        return value, X.T @ (p - y) + pen * w
+
+    bounds = [(None, None), (0.0, None)] + [(None, None)] * n_basis + [(0.0, None)] * n_basis
+    res = minimize(loss, np.zeros(X.shape[1]), jac=True, method="L-BFGS-B", bounds=bounds,
+                   options={"maxiter": 2000, "ftol": 1e-12, "gtol": 1e-8})
+    return res.x
 
 
 def _log_loss(p: np.ndarray, y: np.ndarray) -> float:
@@ -127,36 +193,68 @@ def _log_loss(p: np.ndarray, y: np.ndarray) -> float:
     return float(-np.mean(y * np.log(p) + (1 - y) * np.log(1 - p)))
 
 
+def _alternatives(X: np.ndarray, z: np.ndarray, y: np.ndarray, folds: np.ndarray, l2: float) -> dict[str, float]:
+    """Scikit-learn's maps on the same folds, to measure the monotone map against: the same
+    features without the sign constraint, and isotonic regression on the judge's logit alone."""
+    from sklearn.isotonic import IsotonicRegression
+    from sklearn.linear_model import LogisticRegression
+
+    out = {}
+    for name in ("logistic_unconstrained", "isotonic_judge_only"):
+        p = np.empty(len(y))
+        for k in range(5):
+            tr, te = folds != k, folds == k
+            if len(np.unique(y[tr])) < 2:
+                p[te] = y[tr].mean()
+            elif name == "isotonic_judge_only":
+                p[te] = IsotonicRegression(y_min=1e-3, y_max=1 - 1e-3, out_of_bounds="clip").fit(z[tr], y[tr]).predict(z[te])
+            else:
+                m = LogisticRegression(C=1.0 / l2, max_iter=5000).fit(X[tr, 1:], y[tr])
+                p[te] = m.predict_proba(X[te, 1:])[:, 1]
+        out[name] = round(_log_loss(p, y), 5)
+    return out
+
+
 def fit(setting: str, method: str, description: str, env_names: list[str], envs: np.ndarray,
         predicted: np.ndarray, outcomes: np.ndarray, bumps: int = 9, seed: int = 0,
-        sources: list[str] | None = None) -> Calibrator:
-    """Choose the penalty by 5-fold cross-validated log loss, then fit on all outcomes."""
-    envs, predicted = np.asarray(envs, float), np.asarray(predicted, float)
+        sources: list[str] | None = None, judge_sha256: str | None = None,
+        groups: Sequence[str] | None = None) -> Calibrator:
+    """Choose the penalty by 5-fold cross-validated log loss, then fit on all outcomes; record
+    the fitted points and the radius that judges coverage. `groups`: the planner setting of each
+    outcome (default: each its own), so the radius is measured between settings."""
+    envs, predicted = np.atleast_2d(np.asarray(envs, float)), np.asarray(predicted, float)
     y = np.asarray(outcomes, float)
     if len(y) < 20:
         raise CalibrationError(f"{description}: {len(y)} outcomes are too few to calibrate on (need at least 20)")
     cal = Calibrator(setting, method, description, list(env_names), envs.min(0).tolist(), envs.max(0).tolist(),
-                     bumps, [], 0.0, len(y), int(y.sum()), 0.0, 0.0,
-                     sorted({env_fingerprint(e) for e in envs}), sorted(set(sources or [])))
+                     bumps, [], 0.0, len(y), int(y.sum()), 0.0, 0.0, judge_sha256=judge_sha256,
+                     fitted_on=sorted({env_fingerprint(e) for e in envs}), sources=sorted(set(sources or [])))
     X = cal.features(envs, predicted)
+    n_basis = (X.shape[1] - 2) // 2
     folds = np.random.default_rng(seed).permutation(len(y)) % 5
     scores = {}
     for l2 in L2_GRID:
         p = np.empty(len(y))
         for k in range(5):
-            w = _fit_logistic(X[folds != k], y[folds != k], l2)
-            p[folds == k] = 1.0 / (1.0 + np.exp(-(X[folds == k] @ w)))
+            p[folds == k] = _sigmoid(X[folds == k] @ _fit_monotone(X[folds != k], y[folds != k], l2, n_basis))
         scores[l2] = _log_loss(p, y)
     base = np.empty(len(y))
     for k in range(5):
         base[folds == k] = np.clip(y[folds != k].mean(), 1e-3, 1 - 1e-3)
     cal.l2 = min(scores, key=scores.get)
     cal.cv_log_loss, cal.base_log_loss = scores[cal.l2], _log_loss(base, y)
-    cal.weights = _fit_logistic(X, y, cal.l2).tolist()
+    cal.alternatives = _alternatives(X, X[:, 1], y, folds, cal.l2)
+    cal.weights = _fit_monotone(X, y, cal.l2, n_basis).tolist()
     if cal.base_log_loss < cal.cv_log_loss:  # e.g. 1 failure in 100: nothing to map, report the rate
         r = float(np.clip(y.mean(), 1e-3, 1 - 1e-3))
         cal.weights = [float(np.log(r / (1 - r)))] + [0.0] * (X.shape[1] - 1)
         cal.constant = True
+    pts = cal._scaled(envs, predicted)
+    groups = np.asarray(groups if groups is not None else np.arange(len(pts)).astype(str))
+    cal.cover_radius = float(np.quantile(_kth_distance_to_others(pts, groups), COVER_QUANTILE))
+    if len(pts) > MAX_POINTS:
+        pts = pts[np.sort(np.random.default_rng(seed).choice(len(pts), MAX_POINTS, replace=False))]
+    cal.points = np.round(pts, 6).tolist()
     return cal
 
 
@@ -168,20 +266,31 @@ def save_calibration(path: str | Path, calibrators: dict[str, Calibrator]) -> Pa
 
 
 def load_calibration(path: str | Path) -> dict[str, Calibrator]:
+    """Every calibrator in the file, validated: a version-1 file (coverage judged axis by axis,
+    no monotone map) is refused with the command that refits it."""
     path = Path(path)
+    if path.is_dir():
+        raise CalibrationError(f"{path}: a folder, not a calibration file (give the .json that "
+                               "`judgeopt calibrate --out FILE` wrote)")
     if not path.exists():
         raise CalibrationError(f"{path}: no such calibration file (make one with `judgeopt calibrate "
                                "out/evaluate/TABLE ... --out FILE`)")
     try:
         doc = json.loads(path.read_text())
-        check_header(doc, str(path), FORMAT, VERSION, CalibrationError, "calibration file")
+        found = check_header(doc, str(path), FORMAT, VERSION, CalibrationError, "calibration file")
+        if found < VERSION:
+            raise CalibrationError(f"{path}: calibration format version {found} (coverage judged axis by axis, not "
+                                   f"monotone in the judge) is no longer read; refit it with `judgeopt calibrate "
+                                   f"FOLDER... --over-limits --out {path}`")
         out = {k: Calibrator(**v) for k, v in doc["settings"].items()}
     except (json.JSONDecodeError, KeyError, TypeError, AttributeError) as exc:
         raise CalibrationError(f"{path}: malformed calibration file ({exc}); refit it with `judgeopt calibrate`") from None
     for k, c in out.items():
-        if len(c.weights) != c.features(np.array([c.env_low]), np.array([0.5])).shape[1]:
-            raise CalibrationError(f"{path}: setting {k} has {len(c.weights)} weights, its features need a different "
-                                   "number; refit it with `judgeopt calibrate`")
+        width = len(c._varying()) + 1
+        if len(c.weights) != c.features(np.array([c.env_low]), np.array([0.5])).shape[1] or not c.points or any(
+                len(p) != width for p in c.points):
+            raise CalibrationError(f"{path}: setting {k} has weights or fitted points of the wrong size for its "
+                                   "inputs; refit it with `judgeopt calibrate`")
     return out
 
 
@@ -203,7 +312,7 @@ def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str 
 
 
 def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_names: Iterable[str]) -> None:
-    """Add `calibrated_success` (and whether the environment was in the fitted ranges) to
+    """Add `calibrated_success` (and whether the calibration covers the plan) to
     evaluation rows whose setting has a calibrator; other rows are left as they are."""
     seen = {k: set(c.fitted_on) for k, c in calibrators.items()}
     for r in rows:
@@ -213,6 +322,17 @@ def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_nam
         values = inputs(r.get("limits", {}), r["environment"])
         r.update(cal.annotate(values, r["predicted_success"]))
         r["calibration_fitted_on_env"] = env_fingerprint([values[k] for k in cal.env_names]) in seen[cal.setting]
+
+
+def for_judge(calibrators: dict[str, Calibrator], judge_sha256: str, path: str | Path) -> dict[str, Calibrator]:
+    """The calibrators fitted for this judge (or that do not record which). A file whose every
+    calibrator names another judge is refused: its numbers would describe another judge's plans."""
+    mine = {k: c for k, c in calibrators.items() if c.judge_sha256 in (None, judge_sha256)}
+    if calibrators and not mine:
+        raise CalibrationError(f"{path}: fitted for another judge (weights {sorted({c.judge_sha256[:12] for c in calibrators.values()})}, "
+                               f"this one {judge_sha256[:12]}); refit it with `judgeopt evaluate ... --judge JUDGE` and "
+                               "`judgeopt calibrate FOLDER --out FILE`, or leave --calibration out")
+    return mine
 
 
 def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: list[str], min_n: int = 50,
@@ -234,13 +354,18 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
         description = descriptions.get(rs[0]["setting"], rs[0]["method"])
         if over_limits:  # the family's description: without the first row's limits
             description = re.sub(r"[,;] q̇_max [^,]*, f in \[[^\]]*\]", "", description) + ", over limits"
+        judges = {r.get("judge_sha256") for r in rs}
         out[setting] = fit(setting, rs[0]["method"], description, names,
                            values, np.array([r["predicted_success"] for r in rs]),
-                           np.array([float(r["simulated_success"]) for r in rs]), sources=sources)
+                           np.array([float(r["simulated_success"]) for r in rs]), sources=sources,
+                           judge_sha256=judges.pop() if len(judges) == 1 else None,
+                           groups=[r["setting"] if over_limits else env_fingerprint(r["environment"].values())
+                                   for r in rs])
     return out
 
 
 def describe(c: Calibrator) -> dict[str, Any]:
     return {"setting": c.setting, "description": c.description, "n": c.n, "success_pct": 100 * c.successes / c.n,
             "ranges": {k: [round(lo, 3), round(hi, 3)] for k, lo, hi in zip(c.env_names, c.env_low, c.env_high)},
-            "cv_log_loss": round(c.cv_log_loss, 4), "constant_log_loss": round(c.base_log_loss, 4), "l2": c.l2}
+            "cv_log_loss": round(c.cv_log_loss, 4), "constant_log_loss": round(c.base_log_loss, 4), "l2": c.l2,
+            **{f"{k}_log_loss": v for k, v in c.alternatives.items()}, "cover_radius": round(c.cover_radius, 4)}

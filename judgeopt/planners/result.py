@@ -8,7 +8,7 @@ generator's penalty) is never what is reported.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Mapping, Sequence
 
 import numpy as np
 
@@ -18,6 +18,18 @@ from judgeopt.trajectory import Plan
 
 #: a plan is "likely" to succeed at or above this success probability
 LIKELY = 0.5
+#: the verdict on a plan whose request lies outside what the judge learnt from, where no
+#: calibration fitted on replayed outcomes covers it: its p is a number nobody checked
+OUTSIDE = "outside the judge's data"
+#: a plan holds its hard constraints when its worst residual is at most this (in the constraint's
+#: units); the plan recommended to run is one that holds them, where any does
+HOLD_TOL = 1e-3
+#: what judge / success p / verdict mean, for `solve --explain` and the table's legend
+LEGEND = ("judge: the judge's own probability that the plan succeeds; success p: the probability judgeopt stands "
+          "behind: 'calibrated' where a calibration fitted on replayed outcomes of this planner covers the plan "
+          "(limits, environment and the judge's p), else the judge's, marked uncalibrated; verdict: likely at success "
+          f"p >= {LIKELY}, else unlikely, or '{OUTSIDE}' where the request lies outside the ranges the judge "
+          "learnt from and no calibration covers it; simulated: the plan replayed in the physics simulation")
 
 
 def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) -> dict[str, float]:
@@ -66,8 +78,9 @@ class PlanResult:
 
     @property
     def verdict(self) -> str | None:
-        """"likely" (success_probability >= LIKELY) or "unlikely"; None without a plan."""
-        return verdict_of(self.success_probability)
+        """"likely" (success_probability >= LIKELY), "unlikely", or OUTSIDE (the judge's own p
+        where the request lies outside its data); None without a plan."""
+        return verdict_of(self.success_probability, self.probability_source, self.info.get("outside_judge_data"))
 
     @property
     def max_constraint_violation(self) -> float | None:
@@ -105,9 +118,42 @@ def stood_behind(predicted: float | None, calibrated: float | None, covers: bool
     return (None, "") if predicted is None else (float(predicted), "judge")
 
 
-def verdict_of(p: float | None) -> str | None:
-    """"likely" at p >= LIKELY, else "unlikely"; None without a probability."""
-    return None if p is None else "likely" if p >= LIKELY else "unlikely"
+def verdict_of(p: float | None, source: str = "", outside: Sequence[str] | None = None) -> str | None:
+    """"likely" at p >= LIKELY, else "unlikely"; OUTSIDE where `outside` names what lies beyond
+    the judge's data and p is the judge's own (a calibrated p was checked there); None without a p."""
+    if p is None:
+        return None
+    if outside and source != "calibrated":
+        return OUTSIDE
+    return "likely" if p >= LIKELY else "unlikely"
+
+
+def _get(r: Any, key: str) -> Any:
+    return r.get(key) if isinstance(r, Mapping) else getattr(r, key)
+
+
+def recommended(results: Sequence[Any]) -> Any | None:
+    """The plan a user should run, of PlanResults or their JSON rows: among plans with a verdict,
+    those that hold the hard constraints (HOLD_TOL) first, then those whose verdict is not OUTSIDE,
+    then the highest success probability; ties go to the first listed. None: no plan."""
+    judged = [r for r in results if _get(r, "verdict") is not None]
+    if not judged:
+        return None
+
+    def rank(r: Any) -> tuple[bool, bool, float]:
+        worst = _get(r, "max_constraint_violation")
+        return (worst is None or worst <= HOLD_TOL, _get(r, "verdict") != OUTSIDE, _get(r, "success_probability"))
+
+    return max(judged, key=rank)  # max keeps the first of equal ranks
+
+
+def overall_verdict(results: Sequence[Any]) -> str:
+    """The verdict on the plan to run: "infeasible" where the limits admit no plan, else the
+    recommended plan's verdict ("unlikely" where no planner made a plan)."""
+    if any(_get(r, "status") == "infeasible" for r in results):
+        return "infeasible"
+    top = recommended(results)
+    return "unlikely" if top is None else _get(top, "verdict")
 
 
 def assess(result: PlanResult) -> PlanResult:
@@ -126,7 +172,7 @@ def reassess(rows: list[dict]) -> None:
             continue
         r["success_probability"], r["probability_source"] = stood_behind(
             r.get("predicted_success"), r.get("calibrated_success"), bool(r.get("calibration_covers")))
-        r["verdict"] = verdict_of(r["success_probability"])
+        r["verdict"] = verdict_of(r["success_probability"], r["probability_source"], r.get("outside_judge_data"))
 
 
 def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> PlanResult | None:

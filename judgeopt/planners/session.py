@@ -78,14 +78,40 @@ class SolveReport:
         return any(r.status == "infeasible" for r in self.results)
 
     @property
-    def unlikely(self) -> bool:
-        planned = [r for r in self.results if r.verdict is not None]
-        return bool(planned) and all(r.verdict == "unlikely" for r in planned)
+    def recommended(self) -> Any:
+        """The plan to run (`result.recommended`): one that holds the limits, then the highest p."""
+        from judgeopt.planners.result import recommended
+
+        return recommended(self.results)
 
     @property
     def verdict(self) -> str:
-        return "infeasible" if self.infeasible else "unlikely" if self.unlikely else "likely"
+        """The recommended plan's verdict: "likely", "unlikely", "outside the judge's data", or
+        "infeasible" where the limits admit no plan."""
+        from judgeopt.planners.result import overall_verdict
 
+        return overall_verdict(self.results)
+
+    @property
+    def unlikely(self) -> bool:
+        """No plan to run is likely: the exit code and the suggestions follow."""
+        return self.verdict == "unlikely"
+
+    @property
+    def outside(self) -> list[str]:
+        """What in the request lies outside the judge's data (one phrase each; empty: nothing)."""
+        return list(dict.fromkeys(x for r in self.results for x in r.info.get("outside_judge_data", ())))
+
+    @property
+    def disagreement(self) -> str | None:
+        """Where the planners' verdicts differ: which says what, and the plan to run."""
+        verdicts = {r.method: r.verdict for r in self.results if r.verdict is not None}
+        top = self.recommended
+        if len(set(verdicts.values())) < 2 or top is None:
+            return None
+        said = ", ".join(f"{r.method} {r.verdict} (p {r.success_probability:.2f})" for r in self.results
+                         if r.verdict is not None)
+        return f"the planners disagree: {said}; run the {top.method} plan"
 
 def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | None = None,
           warm_start: str = "generator", ranges: Mapping[str, tuple[float, float]] | None = None,
@@ -93,7 +119,7 @@ def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | 
     """Plan for the problem's nominal environment with `planners` (`Planners.load`).
     `simulator`: replay each plan there (and run the planners that plan while executing), in
     the problem's world changed by `world`; `ranges`: the direct solve plans over a grid of these
-    (env_grid), in their `range_case`; `suggest`: where every plan is unlikely, search for the
+    (env_grid), in their `range_case`; `suggest`: where the plan to run is unlikely, search for the
     limit changes that would make one likely."""
     problem = planners.problem
     env = problem.nominal_env()

@@ -317,12 +317,16 @@ class Planners:
 
     def _annotate(self, r: PlanResult, env: dict[str, float]) -> PlanResult:
         """The result's setting (what its outcomes depend on), limits and calibrated success."""
+        from judgeopt.judge.data_ranges import outside_data
         from judgeopt.planners.calibration import inputs as calibration_inputs
 
         limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
         r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,
-                      setting_description=self.descriptions[r.method])
+                      setting_description=self.descriptions[r.method], judge_sha256=self.judge_meta["weights_sha256"])
         cal = self.calibrators.get(r.method)
         if cal is not None and r.predicted_success is not None:
             r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
+        outside = outside_data(self.judge_meta, env, limits)
+        if outside:
+            r.info["outside_judge_data"] = outside
         return assess(r)

@@ -17,7 +17,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from judgeopt.planners.problem import ProblemError
-from judgeopt.planners.result import LIKELY, PlanResult
+from judgeopt.planners.result import LIKELY, PlanResult, recommended
 from judgeopt.planners.solve import Planners
 from judgeopt.tasks import Task, get_task
 
@@ -71,19 +71,13 @@ class Suggestion:
                 "success_probability_at_bound": self.p_at_bound}
 
 
-def best(results: list[PlanResult]) -> PlanResult | None:
-    """The result with the highest success probability (None if no method made a plan)."""
-    judged = [r for r in results if r.success_probability is not None]
-    return max(judged, key=lambda r: r.success_probability) if judged else None
-
-
 def _screen(planners: Planners, name: str, value: float, env: dict[str, float], guess) -> float:
     """Best success probability of the fastest planner that covers the relaxed limit."""
     relaxed = planners.with_limits(**{name: value})
     fastest = next(m for m in ("amortized", "direct", "cem") if m in relaxed.methods)
     only = dataclasses.replace(relaxed, methods=(fastest,), direct=relaxed.direct if fastest == "direct" else None,
                                cem=relaxed.cem if fastest == "cem" else None)
-    r = best(only.solve(env, guess=guess))
+    r = recommended(only.solve(env, guess=guess))
     return -1.0 if r is None else r.success_probability
 
 
@@ -96,7 +90,7 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
     found: list[Suggestion] = []
     p = planners.problem
     limits = limits if limits is not None else relaxations(get_task(p.task))
-    start = best(results)
+    start = recommended(results)
     guess = start.plan if start is not None else None
     for rx in limits:
         current = getattr(p, rx.name)
@@ -117,7 +111,7 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
                                                                   planners.methods else guess)
         except ProblemError:  # the relaxed limits contradict another one
             continue
-        top = best(relaxed)
+        top = recommended(relaxed)
         if top is not None and top.success_probability >= LIKELY:
             found.append(Suggestion(rx.name, float(hi), float(current), rx.unit, top, p_bound, rx.bound))
     return sorted(found, key=lambda s: s.relative_change)

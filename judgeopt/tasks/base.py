@@ -180,6 +180,9 @@ class Task(ABC):
     #: how the world may differ from the one a plan is made for (`Perturbation`); the task's
     #: simulator applies them (`TaskSimulator.perturb`). Empty: none declared
     perturbations: tuple[Perturbation, ...] = ()
+    #: whether the simulator's Outcome.progress grades how near a failed rollout came to success: the
+    #: feasibility search climbs it, and `evaluate edge` needs that search to find where outcomes flip
+    graded_outcome: bool = False
     #: numeric outcome details (key, label, unit, scale) `evaluate robustness` reports besides success
     outcome_measures: tuple[tuple[str, str, str, float], ...] = ()
 

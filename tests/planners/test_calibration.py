@@ -37,7 +37,7 @@ def test_fit_learns_where_the_planner_fails_and_beats_a_constant():
     calm = test_env[:, 1] < 1.5
     assert abs(p[band].mean() - test_y[band].mean()) < 0.1
     assert abs(p[calm].mean() - test_y[calm].mean()) < 0.05
-    assert cal.covers([[0.2, 1.0]])[0] and not cal.covers([[0.2, 6.0]])[0]
+    assert cal.covers([[0.2, 1.0]], [0.99])[0] and not cal.covers([[0.2, 6.0]], [0.99])[0]
 
 
 def test_too_few_outcomes_is_a_clear_error():
@@ -114,7 +114,12 @@ def test_planners_report_calibrated_success_for_their_setting(tmp_path):
     problem = load_problem(resolve("problems/paper_sim.toml"))
     planners = Planners.load(problem.with_overrides(calibration=str(tmp_path / "none.json")), ("amortized",))
     setting = planners.settings["amortized"]
-    save_calibration(tmp_path / "cal.json", fit_from_rows(_rows(100, setting=setting), {}, ["y_obj", "mu"]))
+    (plain,) = planners.solve({"y_obj": 0.2, "mu": 2.1})
+    assert "calibrated_success" not in plain.info
+    rows = _rows(100, setting=setting)
+    for r in rows:  # the judge's p of this planner's plans: coverage is judged beside it too
+        r["predicted_success"] = plain.predicted_success
+    save_calibration(tmp_path / "cal.json", fit_from_rows(rows, {}, ["y_obj", "mu"]))
     planners = Planners.load(problem.with_overrides(calibration=str(tmp_path / "cal.json")), ("amortized",))
     (r,) = planners.solve({"y_obj": 0.2, "mu": 2.1})
     assert r.info["setting"] == setting and r.info["calibration_covers"]

@@ -100,7 +100,7 @@ def test_solve_exits_4_and_says_so_in_one_line_when_no_plan_is_likely(monkeypatc
     text = capsys.readouterr().out
     assert rc == 4
     verdict_lines = [line for line in text.splitlines() if line.startswith("judgeopt solve: no plan is likely")]
-    assert len(verdict_lines) == 1 and "best p = " in verdict_lines[0]
+    assert len(verdict_lines) == 1 and "the plan to run: direct, p = " in verdict_lines[0]
     assert ("no single limit relaxed" in text) == (suggest_flag == "--suggest")
 
 
@@ -134,3 +134,120 @@ def test_a_calibration_for_other_models_is_refused_in_one_line(capsys, tmp_path)
                  str(empty)]) == 2
     err = capsys.readouterr().err
     assert "has no calibration for these planners" in err and len(err.strip().splitlines()) == 1
+
+
+# -- the verdict on the plan to run, where planners disagree -------------------------------------------
+def _planned(method, p, violation=0.0, **info) -> PlanResult:
+    r = _result(p, **info)
+    r.method, r.residuals = method, {"qdot_max": violation}
+    return assess(r)
+
+
+def test_the_plan_to_run_holds_the_limits_first_then_has_the_highest_p():
+    from judgeopt.planners.result import HOLD_TOL, overall_verdict, recommended
+
+    likely, unlikely = _planned("amortized", 0.9), _planned("direct", 0.2)
+    assert recommended([likely, unlikely]) is likely and overall_verdict([likely, unlikely]) == "likely"
+    assert recommended([unlikely, likely]) is likely  # not the order: the higher p
+    breaking = _planned("amortized", 0.9, violation=0.006)  # a soft generator over q̇_max by 6 mm/s
+    assert recommended([breaking, unlikely]) is unlikely and overall_verdict([breaking, unlikely]) == "unlikely"
+    assert recommended([_planned("amortized", 0.9, violation=HOLD_TOL), unlikely]).method == "amortized"
+    tie = [_planned("amortized", 0.99), _planned("direct", 0.99)]
+    assert recommended(tie) is tie[0]
+    both = [_planned("amortized", 0.3), _planned("direct", 0.2)]
+    assert overall_verdict(both) == "unlikely" and recommended(both) is both[0]
+    assert overall_verdict([]) == "unlikely" and recommended([]) is None
+    assert overall_verdict([PlanResult("direct", {}, None, None, "infeasible", 0.0), likely]) == "infeasible"
+    rows = [r.to_json() for r in (breaking, unlikely)]  # the same rule on evaluation rows
+    assert recommended(rows)["method"] == "direct" and overall_verdict(rows) == "unlikely"
+
+
+def test_outside_the_judges_data_the_verdict_says_so_unless_a_calibration_checked_it():
+    from judgeopt.planners.result import OUTSIDE, overall_verdict, reassess
+
+    far = ["y_obj = 0.35 m is outside the judge's data (0.10-0.28)"]
+    judged = _planned("direct", 0.999, outside_judge_data=far)
+    assert judged.verdict == OUTSIDE and judged.to_json()["verdict"] == OUTSIDE
+    checked = _planned("direct", 0.2, outside_judge_data=far, calibrated_success=0.9, calibration_covers=True)
+    assert checked.verdict == "likely"  # a calibrated p was checked against replayed outcomes there
+    inside = _planned("amortized", 0.4)
+    assert overall_verdict([judged, inside]) == "unlikely"  # a plan inside the data is preferred
+    assert overall_verdict([judged]) == OUTSIDE
+    row = judged.to_json()
+    row["verdict"] = None
+    reassess([row])
+    assert row["verdict"] == OUTSIDE
+
+
+def _report(monkeypatch, results):
+    """`judgeopt solve` on a report whose results are given (the planners are loaded for real)."""
+    from judgeopt.planners import session
+
+    def fake_solve(planners, **kw):
+        return session.SolveReport(planners.problem, planners.problem.nominal_env(), planners, results)
+
+    monkeypatch.setattr(session, "solve", fake_solve)
+
+
+@pytest.mark.parametrize("case", ["mixed", "breaking", "outside"])
+def test_solve_exit_code_and_summary_follow_the_plan_to_run(monkeypatch, capsys, case):
+    far = ["y_obj = 0.35 m is outside the judge's data (0.10-0.28)"]
+    results = {"mixed": [_planned("amortized", 0.9), _planned("direct", 0.2)],
+               "breaking": [_planned("amortized", 0.9, violation=0.006), _planned("direct", 0.2)],
+               "outside": [_planned("amortized", 0.99, outside_judge_data=far),
+                           _planned("direct", 0.98, outside_judge_data=far)]}[case]
+    _report(monkeypatch, results)
+    code = main(["solve", "--no-simulate", "--no-suggest"])
+    out = capsys.readouterr().out
+    if case == "mixed":
+        assert code == 0 and "the planners disagree" in out and "run the amortized plan" in out
+        assert "no plan is likely" not in out
+    elif case == "breaking":
+        assert code == 4 and "run the direct plan" in out and "the plan to run: direct, p = 0.20" in out
+    else:
+        assert code == 4 and "note: y_obj = 0.35 m is outside the judge's data" in out and "no plan is likely" not in out
+        assert "the plan to run (amortized) is outside the judge's data" in out
+    _report(monkeypatch, results)
+    assert main(["solve", "--no-simulate", "--no-suggest", "--json"]) == code
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["verdict"] == {"mixed": "likely", "breaking": "unlikely", "outside": result_module.OUTSIDE}[case]
+    assert doc["recommended"] == {"mixed": "amortized", "breaking": "direct", "outside": "amortized"}[case]
+
+
+def test_suggestions_are_searched_only_when_the_plan_to_run_is_unlikely(monkeypatch):
+    from judgeopt.planners import session
+    from judgeopt.planners import suggest as suggest_mod
+
+    problem = load_problem(resolve("problems/paper_sim.toml"))
+    calls = []
+    monkeypatch.setattr(suggest_mod, "suggest", lambda planners, env, results: calls.append(results) or ["x"])
+
+    @dataclasses.dataclass
+    class Given:
+        problem: object
+        results: list
+        direct: object = None
+        notes: list = dataclasses.field(default_factory=list)
+
+        def solve(self, env, **kw):
+            return self.results
+
+    mixed = session.solve(Given(problem, [_planned("amortized", 0.9), _planned("direct", 0.2)]))
+    assert mixed.verdict == "likely" and not calls and mixed.suggestions == []
+    breaking = session.solve(Given(problem, [_planned("amortized", 0.9, violation=0.006), _planned("direct", 0.2)]))
+    assert breaking.unlikely and len(calls) == 1 and breaking.suggestions == ["x"]
+    assert "run the direct plan" in breaking.disagreement
+
+
+@pytest.mark.parametrize("option,value,name", [("--y-obj", "0.35", "y_obj"), ("--mu", "4.5", "mu"),
+                                               ("--qdot-max", "1.3", "qdot_max")])
+def test_a_request_outside_the_judges_data_is_named_in_one_line(capsys, option, value, name):
+    """The shipped refined judge learnt y_obj 0.10-0.28 m, mu 0.05-4, q̇_max 0.22-1.2 m/s."""
+    code = main(["solve", option, value, "--method", "direct", "--no-simulate", "--no-suggest"])
+    out = capsys.readouterr().out
+    notes = [line for line in out.splitlines() if line.startswith(f"note: {name} = ")]
+    assert code == 4 and len(notes) == 1 and "outside the judge's data" in notes[0]
+    assert "the plan to run (direct) is outside the judge's data" in out
+    inside = {"y_obj": "0.27", "mu": "3.9", "qdot_max": "1.15"}[name]
+    assert main(["solve", option, inside, "--method", "direct", "--no-simulate", "--no-suggest"]) in (0, 4)
+    assert "outside the judge's data" not in capsys.readouterr().out

@@ -55,6 +55,7 @@ class ScoopTask(Task):
     wide_limits = {"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)}
     # the world unlike the model: friction and position misestimated, mass, size, mat, gains, sensor
     perturbations = PERTURBATIONS
+    graded_outcome = True
     outcome_measures = (("object_ahead", "the object's centre ahead of the blade centre", "cm", 100.0),
                         ("object_bottom", "the object's lowest point above the plate", "cm", 100.0))
 
@@ -80,7 +81,7 @@ class ScoopTask(Task):
                   if "object_bottom" in details else "")
         return (f"the object rose {100 * details['object_rise']:.1f} cm{bottom} and ended "
                 f"{100 * details['offset_from_blade']:.1f} cm from the blade centre, "
-                f"{'on' if details['on_blade'] else 'off'} the blade (success: {test}, "
+                f"{'on' if details['on_blade'] else 'off'} the blade (a success needs: {test}, "
                 f"on the blade, off the plate, within {100 * rc.max_overhang:g} cm)")
 
     def render(self, plan: Any, env: Mapping[str, float], out: Any, caption: str = "", simulator: Any = None):

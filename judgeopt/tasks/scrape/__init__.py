@@ -54,6 +54,7 @@ class ScrapeTask(Task):
     wide_limits = {"qdot_max": (0.2, V_MAX), "f_min": (0.0, 2.0), "f_max": (3.0, F_RANGE[1])}
     # the world unlike the model: friction and the puck's place misestimated, mass, gains, sensor
     perturbations = PERTURBATIONS
+    graded_outcome = True
     outcome_measures = (("pushed", "how far the puck was pushed along y", "cm", 100.0),
                         ("blade_max_lift", "the blade's highest rise while pushing", "mm", 1000.0))
 
@@ -77,4 +78,4 @@ class ScrapeTask(Task):
     def explain(self, details: Mapping[str, Any]) -> str:
         return (f"the puck moved {100 * details['pushed']:.1f} cm along y, the blade rose at most "
                 f"{1000 * details['blade_max_lift']:.1f} mm; it ended {'in' if details['in_tray'] else 'outside'} "
-                "the tray")
+                "the tray (a success needs: in the tray)")
