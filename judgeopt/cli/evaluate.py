@@ -298,7 +298,8 @@ def _argv(args: argparse.Namespace) -> list[str]:
               if k.endswith("_range") and v is not None]
     extra += (["--perturb", *(n if v is None else f"{n}={','.join(f'{x:g}' for x in v)}" for n, v in args.perturb)]
               if args.perturb else []) + (["--qdot-max", ",".join(f"{q:g}" for q in args.qdot_max)] if args.qdot_max else [])
-    extra += ["--trials", str(args.trials)] if args.trials else []
+    extra += (["--trials", str(args.trials)] if args.trials else []) + (
+        ["--calibration", args.calibration] if args.calibration else [])
     extra += (["--edge-limit", args.edge_limit] if args.edge_limit else []) + (
         [f"--edge-span {args.edge_span[0]:g},{args.edge_span[1]:g}"] if args.edge_span else []) + (
         ["--offsets " + ",".join(f"{x:g}" for x in args.offsets)] if args.offsets else [])

@@ -205,13 +205,16 @@ def summarise_edge(rows: Sequence[dict], methods: Sequence[str]) -> dict:
                     "mean_p": float(p.mean()) if len(p) else None, "success_pct": _rate(int(sim.sum()), len(rs)),
                     "ece": calibration_error(p, sim, EDGE_BINS) if len(p) else None,
                     "reliability": reliability(p, sim, EDGE_BINS) if len(p) else []})
-    groups: dict[tuple, list[dict]] = {}
+    groups: dict[str, list[dict]] = {}  # a setting: its environment and every limit (sweeps at several q̇_max share indices)
+    edges: dict[str, float | None] = {}  # an environment under the limits other than the one bisected
     for r in rows:
-        if r.get("method"):
-            groups.setdefault((r["env_index"], r["offset"]), []).append(r)
+        if not r.get("method"):  # a setting no planner could plan at (no generator for the amortised one alone)
+            continue
+        others = {k: v for k, v in r["limits"].items() if k != r["edge_limit"]}
+        edges[json.dumps([r["environment"], others], sort_keys=True, default=str)] = r["edge"]
+        groups.setdefault(json.dumps([r["environment"], r["limits"]], sort_keys=True, default=str), []).append(r)
     none_succeeded = [rs for rs in groups.values() if not any(r.get("simulated_success") for r in rs)]
     verdicts = [overall_verdict(rs) for rs in none_succeeded]
-    edges = {r["env_index"]: r["edge"] for r in rows}
     return {"planners": per, "settings": len(groups), "environments": len(edges),
             "edges_found": sum(e is not None for e in edges.values()),
             "edge_values": sorted(e for e in edges.values() if e is not None),
@@ -224,7 +227,7 @@ def _f(v, fmt: str, suffix: str = "") -> str:
 
 def markdown_edge(summary: dict, title: str, command: str) -> str:
     e = summary["edge_values"]
-    where = f"{min(e):g} to {max(e):g} (median {np.median(e):g})" if e else "-"
+    where = f"{min(e):.1f} to {max(e):.1f} (median {np.median(e):.1f})" if e else "-"
     lines = [f"### {title}", "", f"`{command}`", "",
              f"{summary['environments']} environments, an edge found in {summary['edges_found']} (the limit's value "
              f"at the edge: {where}); {summary['settings']} settings around it.", "",

@@ -251,3 +251,28 @@ def test_a_request_outside_the_judges_data_is_named_in_one_line(capsys, option, 
     inside = {"y_obj": "0.27", "mu": "3.9", "qdot_max": "1.15"}[name]
     assert main(["solve", option, inside, "--method", "direct", "--no-simulate", "--no-suggest"]) in (0, 4)
     assert "outside the judge's data" not in capsys.readouterr().out
+
+
+def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
+    """Evaluation rows re-judged after a calibration was fitted (what `evaluate` does with old plans)."""
+    from judgeopt.planners.result import reassess
+
+    rows = [{"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
+             "calibration_covers": True},
+            {"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
+             "calibration_covers": False},
+            {"success_probability": 0.3, "predicted_success": 0.3},
+            {"success_probability": None, "predicted_success": None, "verdict": None}]
+    reassess(rows)
+    assert [(r["success_probability"], r.get("probability_source"), r["verdict"]) for r in rows] == [
+        (0.2, "calibrated", "unlikely"), (0.99, "judge", "likely"), (0.3, "judge", "unlikely"), (None, None, None)]
+
+
+def test_a_results_json_carries_its_verdict_and_where_its_p_comes_from():
+    r = _planned("direct", 0.7, violation=0.002, calibrated_success=0.4, calibration_covers=True)
+    d = r.to_json()
+    assert (d["method"], d["predicted_success"], d["success_probability"], d["probability_source"], d["verdict"]) == (
+        "direct", 0.7, 0.4, "calibrated", "unlikely")
+    assert d["max_constraint_violation"] == 0.002 and d["worst_constraint"] == "qdot_max"
+    assert d["calibration_covers"] is True and d["channels"] == ["y", "ydot", "f"] and len(d["t"]) == len(d["y"])
+    assert d["units"]["t"] == "s" and d["environment"] == {"y_obj": 0.2, "mu": 2.0}
