@@ -68,7 +68,7 @@ def test_settings_lie_around_the_edge_and_leave_out_limits_that_contradict_the_p
     # f_min: the easier side is lower
     assert settings_around(PROBLEM, 5.0, EdgeConfig(limit="f_min", offsets=(-1.0, 1.0))) == [(-1.0, 6.0), (1.0, 4.0)]
     # no edge found: only below the easy end, where every plan should be called unlikely
-    assert settings_around(PROBLEM, None, EdgeConfig(span=(11.0, 20.0), offsets=(-1.0, 0.0, 1.0))) == [(-1.0, 19.0)]
+    assert settings_around(PROBLEM, None, EdgeConfig(span=(11.0, 20.0), offsets=(0.0, 1.0, -1.0))) == [(-1.0, 19.0)]
 
 
 def test_an_unknown_limit_or_a_task_without_a_feasibility_search_is_one_line(monkeypatch):
@@ -76,6 +76,10 @@ def test_an_unknown_limit_or_a_task_without_a_feasibility_search_is_one_line(mon
         edge_direction(PROBLEM, EdgeConfig(limit="q_min"))
     from judgeopt.tasks import get_task
 
+    monkeypatch.setattr(type(get_task("scoop")), "wide_limits", {"qdot_max": (0.2, 1.0)})
+    with pytest.raises(ProblemError, match="declares no wide range of f_max: give --edge-span"):
+        edge_direction(PROBLEM, EdgeConfig())
+    assert edge_direction(PROBLEM, EdgeConfig(span=(11.0, 20.0)))[1] == (11.0, 20.0)
     monkeypatch.setattr(type(get_task("scoop")), "graded_outcome", False)
     with pytest.raises(ProblemError, match="has no feasibility search"):
         edge_direction(PROBLEM, EdgeConfig())
@@ -94,9 +98,10 @@ def test_summary_counts_likely_failures_and_overall_likely_where_none_succeeded(
             _row(1, 0.0, "amortized", "unlikely", 0.2, True), _row(1, 0.0, "direct", "unlikely", 0.1, False),
             _row(1, 1.0, "amortized", "outside the judge's data", 0.99, False, "judge"),
             _row(1, 1.0, "direct", "unlikely", 0.4, False), _row(2, 0.0, "direct", "likely", 0.7, True),
-            {"method": None, "env_index": 3, "environment": {"y_obj": 0.2, "mu": 2.0}, "status": "skipped",
-             "edge": None, "offset": 0.0}]
-    rows[-2]["edge"] = None  # environment 2: no edge found there
+            {**_row(2, 1.0, "direct", None, None, None), "status": "not planned"}]  # no verdict: not counted
+    rows[-2]["edge"] = rows[-1]["edge"] = None  # environment 2: no edge found there
+    rows.insert(0, {"method": None, "env_index": 3, "environment": {"y_obj": 0.2, "mu": 2.0}, "status": "skipped",
+                    "edge": None, "offset": 0.0})  # a setting no planner could plan at, first
     s = summarise_edge(rows, ("amortized", "direct"))
     am, di = s["planners"]
     assert {k: v for k, v in am.items() if k not in ("reliability", "ece", "mean_p")} == {
@@ -112,12 +117,12 @@ def test_summary_counts_likely_failures_and_overall_likely_where_none_succeeded(
         (pytest.approx(0.0), 1, 0.0), (pytest.approx(0.2), 1, 0.0), (pytest.approx(0.3), 1, 0.0),
         (pytest.approx(0.6), 1, 1.0), (pytest.approx(0.7), 1, 1.0)]
     # settings where no plan succeeded: (0, 0.0) says likely (the amortised plan's p 0.9), (1, 1.0) unlikely
-    assert (s["settings"], s["environments"], s["none_succeeded"], s["likely_where_none_succeeded"]) == (5, 3, 2, 1)
+    assert (s["settings"], s["environments"], s["none_succeeded"], s["likely_where_none_succeeded"]) == (6, 3, 3, 1)
     assert (s["edges_found"], s["edge_values"]) == (2, [14.0, 14.0])
     # the same environments and offsets under another q̇_max are other settings (sweeps share env indices)
     planned = [r for r in rows if r["method"]]
     again = summarise_edge(planned + [{**r, "limits": {**r["limits"], "qdot_max": 1.0}} for r in planned], ("direct",))
-    assert (again["settings"], again["environments"], again["none_succeeded"]) == (10, 6, 4)
+    assert (again["settings"], again["environments"], again["none_succeeded"]) == (12, 6, 6)
     assert summarise_edge([], ("direct",))["planners"][0] == {
         "method": "direct", "plans": 0, "successes": 0, "likely": 0, "likely_failed": 0, "likely_failed_pct": None,
         "unlikely": 0, "unlikely_succeeded": 0, "outside_judge_data": 0, "calibrated": 0, "mean_p": None,

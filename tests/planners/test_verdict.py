@@ -257,15 +257,21 @@ def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
     """Evaluation rows re-judged after a calibration was fitted (what `evaluate` does with old plans)."""
     from judgeopt.planners.result import reassess
 
-    rows = [{"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
+    rows = [{"success_probability": None, "predicted_success": None, "verdict": None},
+            {"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
              "calibration_covers": True},
             {"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
              "calibration_covers": False},
             {"success_probability": 0.3, "predicted_success": 0.3},
-            {"success_probability": None, "predicted_success": None, "verdict": None}]
+            {"success_probability": 0.3, "predicted_success": 0.3, "calibrated_success": 0.8,
+             "calibration_covers": True, "outside_judge_data": ["mu = 4.5 is outside the judge's data (0.05-4.0)"]}]
     reassess(rows)
     assert [(r["success_probability"], r.get("probability_source"), r["verdict"]) for r in rows] == [
-        (0.2, "calibrated", "unlikely"), (0.99, "judge", "likely"), (0.3, "judge", "unlikely"), (None, None, None)]
+        (None, None, None), (0.2, "calibrated", "unlikely"), (0.99, "judge", "likely"), (0.3, "judge", "unlikely"),
+        (0.8, "calibrated", "likely")]
+    from judgeopt.planners.result import stood_behind
+
+    assert stood_behind(None, None, False) == (None, "") and stood_behind(None, 0.7, False) == (None, "")
 
 
 def test_a_results_json_carries_its_verdict_and_where_its_p_comes_from():
