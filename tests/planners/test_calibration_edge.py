@@ -79,6 +79,11 @@ def test_points_just_beyond_each_fitted_range_are_not_covered_even_next_to_fitte
         assert bool(cal.covers([x], [0.5])[0]) is covered, (x, share)
 
 
+def test_coverage_is_judged_per_plan():
+    cal = _hand_made()
+    assert cal.covers([[0.5, 5.0], [0.5, 12.0], [0.0, 0.0]], [0.5, 0.5, 0.5]).tolist() == [True, False, True]
+
+
 def test_coverage_radius_binds_at_its_value():
     """Six fitted copies at (0.5, 5), judge p 0.5: the NEIGHBOURS-th is at the query's distance."""
     cal = _hand_made(radius=0.2)
@@ -116,8 +121,9 @@ def test_a_calibration_of_an_older_or_newer_version_or_another_judge_is_refused_
     assert set(for_judge(load_calibration(path), "a" * 64, path)) == {"s"}
     with pytest.raises(CalibrationError, match="a folder"):
         load_calibration(tmp_path)
-    bad = dict(doc)
-    bad["settings"] = {"s": {**doc["settings"]["s"], "points": [[0.1, 0.2]]}}  # 2 numbers where 3 are needed
-    (tmp_path / "bad.json").write_text(json.dumps(bad))
-    with pytest.raises(CalibrationError, match="wrong size"):
-        load_calibration(tmp_path / "bad.json")
+    for damage in ({"points": [[0.1, 0.2]]}, {"weights": [0.0] * 3}, {"points": []}):  # 2 numbers where 3 are needed
+        bad = dict(doc)
+        bad["settings"] = {"s": {**doc["settings"]["s"], **damage}}
+        (tmp_path / "bad.json").write_text(json.dumps(bad))
+        with pytest.raises(CalibrationError, match="wrong size"):
+            load_calibration(tmp_path / "bad.json")
