@@ -150,10 +150,7 @@ def cmd_edge(args: argparse.Namespace) -> int:
         problem = base if q is None else base.with_overrides(qdot_max=q)
         rows += run_edge(problem, cfg, methods, args.n, args.seed, out, vary, n_jobs=args.jobs,
                          scheduler=args.scheduler, chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    for r in rows:  # with the calibration there is now (cached plans may predate it)
-        r.pop("calibrated_success", None)
-        r.pop("calibration_covers", None)
-    calibrate_rows(rows, calibrators, base.env_names)
+    calibrate_rows(rows, calibrators, base.env_names)  # with the calibration there is now (cached plans may predate it)
     reassess(rows)
     summary = summarise_edge(rows, methods)
     speeds = ", ".join(f"{q:g}" for q in args.qdot_max) if args.qdot_max else f"{base.qdot_max:g}"

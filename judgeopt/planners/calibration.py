@@ -19,6 +19,7 @@ import hashlib
 import json
 import re
 from dataclasses import asdict, dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any, Iterable, Sequence
 
@@ -140,7 +141,14 @@ class Calibrator:
         lo, hi = np.asarray(self.env_low), np.asarray(self.env_high)
         tol = 1e-9 + RANGE_MARGIN * (hi - lo)
         inside = np.all((env >= lo - tol) & (env <= hi + tol), axis=1)
-        return inside & (_kth_distance(self._scaled(env, predicted), np.asarray(self.points)) <= self.cover_radius)
+        return inside & (_kth_distance(self._scaled(env, predicted), self._tree) <= self.cover_radius)
+
+    @cached_property
+    def _tree(self) -> Any:
+        """The fitted points' k-d tree, built once per calibrator (not a field: never saved)."""
+        from scipy.spatial import cKDTree
+
+        return cKDTree(np.asarray(self.points))
 
     def annotate(self, env: dict[str, float], predicted: float) -> dict[str, Any]:
         """What a plan's result carries: the calibrated success, and whether the calibration covers it."""
@@ -149,11 +157,12 @@ class Calibrator:
                 "calibration_covers": bool(self.covers(e, [predicted])[0])}
 
 
-def _kth_distance(query: np.ndarray, points: np.ndarray, k: int = NEIGHBOURS) -> np.ndarray:
-    """Each query's distance to its k-th nearest point."""
+def _kth_distance(query: np.ndarray, points: Any, k: int = NEIGHBOURS) -> np.ndarray:
+    """Each query's distance to its k-th nearest point (`points`: an array, or its cKDTree)."""
     from scipy.spatial import cKDTree
 
-    d, _ = cKDTree(points).query(query, k=[min(k, len(points))])
+    tree = points if isinstance(points, cKDTree) else cKDTree(points)
+    d, _ = tree.query(query, k=[min(k, tree.n)])
     return d[:, 0]
 
 
@@ -313,9 +322,12 @@ def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str 
 
 def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_names: Iterable[str]) -> None:
     """Add `calibrated_success` (and whether the calibration covers the plan) to
-    evaluation rows whose setting has a calibrator; other rows are left as they are."""
+    evaluation rows whose setting has a calibrator. What an earlier calibration wrote into a row
+    (a chunk planned before this one was fitted) is dropped first: rows say what `calibrators` say."""
     seen = {k: set(c.fitted_on) for k, c in calibrators.items()}
     for r in rows:
+        for key in ("calibrated_success", "calibration_covers", "calibration_fitted_on_env"):
+            r.pop(key, None)
         cal = lookup(calibrators, r.get("setting"), r.get("family"))
         if cal is None or r.get("predicted_success") is None:
             continue

@@ -73,7 +73,9 @@ def test_file_round_trip_and_rows_are_flagged_when_fitted_on(tmp_path):
     assert all(0 < r["calibrated_success"] < 1 and not r["calibration_fitted_on_env"] for r in held_out[:5])
     assert "calibrated_success" not in held_out[5]  # another setting gets no calibrated value
     first_other = held_out[5:] + _rows(2, seed=8)
+    first_other[0].update(calibrated_success=0.9, calibration_covers=True)  # written by an earlier calibration
     calibrate_rows(first_other, loaded, ["y_obj", "mu"])  # a row without a calibrator does not end the pass
+    assert "calibrated_success" not in first_other[0] and "calibration_covers" not in first_other[0]
     assert "calibrated_success" in first_other[1] and "calibrated_success" in first_other[2]
     seen = rows[:3]
     calibrate_rows(seen, loaded, ["y_obj", "mu"])

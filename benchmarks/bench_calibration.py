@@ -1,0 +1,63 @@
+"""What the calibration adds to every plan, measured side by side in one run.
+
+Every planner result is annotated with its calibrated p and whether the calibration covers it
+(`Calibrator.annotate`: the map, and the k-th nearest fitted outcome in the joint space). Timed
+for the shipped direct-solve calibrator, with the fitted points' k-d tree kept on the calibrator
+(as `covers` does) against rebuilding it on every call, alternated, the median of --n calls each.
+For scale: the direct solve takes 20-30 ms, the generator 1-2 ms per plan.
+
+    python benchmarks/bench_calibration.py [--n 500] [--busy]
+
+--busy keeps every core busy with a spinning process while timing, as on a robot's computer.
+"""
+
+from __future__ import annotations
+
+import argparse
+import multiprocessing as mp
+import os
+import time
+
+import numpy as np
+
+from judgeopt.files import resolve
+from judgeopt.planners.calibration import _kth_distance, inputs, load_calibration
+from judgeopt.planners.problem import LIMIT_NAMES, load_problem
+
+
+def _spin() -> None:
+    while True:
+        pass
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, default=500)
+    ap.add_argument("--busy", action="store_true")
+    args = ap.parse_args()
+    busy = [mp.Process(target=_spin, daemon=True) for _ in range(os.cpu_count() or 1)] if args.busy else []
+    for p in busy:
+        p.start()
+    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(qdot_max=0.4)
+    cal = next(c for c in load_calibration(resolve(problem.calibration)).values() if c.method == "direct"
+               and c.judge_sha256 and len(c.points) > 100)
+    x = inputs({k: getattr(problem, k) for k in LIMIT_NAMES}, problem.nominal_env())
+    e, p = np.array([[x[k] for k in cal.env_names]]), np.array([0.99])
+    cached, rebuilt = [], []
+    for _ in range(args.n):
+        t = time.perf_counter()
+        cal.annotate(x, 0.99)
+        cached.append(time.perf_counter() - t)
+        t = time.perf_counter()
+        cal.predict(e, p)
+        _kth_distance(cal._scaled(e, p), np.asarray(cal.points))
+        rebuilt.append(time.perf_counter() - t)
+    for q in busy:
+        q.terminate()
+    a, b = 1e3 * np.median(cached), 1e3 * np.median(rebuilt)
+    print(f"{'busy' if busy else 'idle'} ({len(cal.points)} fitted points): annotate {a:.3f} ms with the tree kept, "
+          f"{b:.3f} ms rebuilding it per call; ratio {b / a:.1f}x")
+
+
+if __name__ == "__main__":
+    main()
