@@ -7,6 +7,7 @@ import argparse
 import json
 import shlex
 import sys
+from pathlib import Path
 from enum import IntEnum
 
 
@@ -105,10 +106,19 @@ def _parent() -> argparse.ArgumentParser:
     return argparse.ArgumentParser(add_help=False)
 
 
+def _folder(text: str) -> str:
+    """A folder to write into: anything but an existing file."""
+    if Path(text).exists() and not Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a file; give a folder (it is created if missing)")
+    return text
+
+
 def out_option(kind: str, what: str, required: bool = False, default: str | None = None) -> argparse.ArgumentParser:
-    """--out, named for what it is: FILE, DIR (a folder) or STEM (a model path without suffix)."""
+    """--out, named for what it is: FILE, DIR (a folder: an existing file is refused) or STEM (a
+    model path without suffix)."""
     p = _parent()
-    p.add_argument("--out", metavar=kind, required=required, default=default, help=what)
+    p.add_argument("--out", metavar=kind, required=required, default=default, help=what,
+                   type=_folder if kind == "DIR" else None)
     return p
 
 

@@ -166,3 +166,12 @@ def test_edge_sweep_end_to_end_resumes_and_writes_the_rows_calibrate_reads(tmp_p
     assert len(err) == 1 and "--edge-limit q_min: choose one of" in err[0]
     assert main(["evaluate", "sweep", "--offsets=1"]) != 0
     assert "only for `judgeopt evaluate edge`" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("table", ["edge", "sweep", "planners"])
+def test_an_output_folder_that_is_a_file_is_one_line(tmp_path, capsys, table):
+    (tmp_path / "taken").write_text("x")
+    with pytest.raises(SystemExit) as exit_:
+        main(["evaluate", table, "--out", str(tmp_path / "taken")])
+    assert exit_.value.code == 2 and "is a file; give a folder" in capsys.readouterr().err
+    assert (tmp_path / "taken").read_text() == "x"
