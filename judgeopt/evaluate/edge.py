@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
@@ -29,7 +28,7 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from judgeopt.evaluate.feasibility import SearchConfig, search
-from judgeopt.evaluate.report import calibration_error, reliability
+from judgeopt.evaluate.report import calibration_error, cell, reliability
 from judgeopt.files import atomic_write
 from judgeopt.planners.problem import Problem, ProblemError
 from judgeopt.planners.result import overall_verdict
@@ -221,10 +220,6 @@ def summarise_edge(rows: Sequence[dict], methods: Sequence[str]) -> dict:
             "none_succeeded": len(none_succeeded), "likely_where_none_succeeded": verdicts.count("likely")}
 
 
-def _f(v, fmt: str, suffix: str = "") -> str:
-    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:{fmt}}{suffix}"
-
-
 def markdown_edge(summary: dict, title: str, command: str) -> str:
     e = summary["edge_values"]
     where = f"{min(e):.1f} to {max(e):.1f} (median {np.median(e):.1f})" if e else "-"
@@ -235,10 +230,10 @@ def markdown_edge(summary: dict, title: str, command: str) -> str:
              "| outside the judge's data | calibrated p | mean p | ECE |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary["planners"]:
-        lines.append(f"| {s['method']} | {s['plans']} | {s['successes']} ({_f(s['success_pct'], '.0f', ' %')}) "
-                     f"| {s['likely']} | {s['likely_failed']} ({_f(s['likely_failed_pct'], '.1f', ' %')}) "
+        lines.append(f"| {s['method']} | {s['plans']} | {s['successes']} ({cell(s['success_pct'], '.0f', ' %')}) "
+                     f"| {s['likely']} | {s['likely_failed']} ({cell(s['likely_failed_pct'], '.1f', ' %')}) "
                      f"| {s['unlikely']} | {s['unlikely_succeeded']} | {s['outside_judge_data']} | {s['calibrated']} "
-                     f"| {_f(s['mean_p'], '.3f')} | {_f(s['ece'], '.3f')} |")
+                     f"| {cell(s['mean_p'], '.3f')} | {cell(s['ece'], '.3f')} |")
     lines += ["", f"Settings where no plan succeeded: {summary['none_succeeded']}; the overall verdict (the "
               f"recommended plan's) said 'likely' in {summary['likely_where_none_succeeded']} of them.", "",
               "p: the success probability judgeopt prints (calibrated where a calibration covers the plan, else the "
@@ -260,7 +255,7 @@ def plot_edge(summary: dict, rows: Sequence[dict], title: str) -> "Figure":
         if not cells:
             continue
         line, = ax.plot([c["predicted"] for c in cells], [c["observed"] for c in cells], marker="o",
-                        label=f"{s['method']} (ECE {_f(s['ece'], '.3f')})")
+                        label=f"{s['method']} (ECE {cell(s['ece'], '.3f')})")
         ax.scatter([c["predicted"] for c in cells], [c["observed"] for c in cells],
                    s=[10 + 2 * c["n"] for c in cells], color=line.get_color(), alpha=0.4)
     ax.set_xlabel("success p printed")

@@ -24,6 +24,11 @@ def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
     return (c - h, c + h)
 
 
+def cell(v, fmt: str, suffix: str = "") -> str:
+    """A table cell: the value formatted, or "-" where there is none (None or NaN)."""
+    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:{fmt}}{suffix}"
+
+
 #: reliability bins: the planners' predictions crowd near 1, so the upper bins are narrow
 BINS = (0.0, 0.5, 0.8, 0.9, 0.95, 0.98, 0.99, 1.0)
 

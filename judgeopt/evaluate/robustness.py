@@ -241,10 +241,6 @@ def _column(s: dict) -> str:
     return f"{s['method']}, q̇_max {s['qdot_max']:g}"
 
 
-def _f(v, fmt: str) -> str:
-    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else format(v, fmt)
-
-
 def markdown_robustness(task: Task, summary: list[dict], title: str) -> str:
     columns = list(dict.fromkeys(_column(s) for s in summary))
     worlds = list(dict.fromkeys(s["world"] for s in summary))

@@ -11,13 +11,13 @@ where it was not, and whether the probabilities match the outcomes.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from judgeopt.evaluate.report import cell
 from judgeopt.evaluate.tables import Row
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
@@ -151,10 +151,6 @@ def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, li
     return out
 
 
-def _f(v, fmt: str, suffix: str = "") -> str:
-    return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:{fmt}}{suffix}"
-
-
 def markdown_sweep(summary: list[dict], title: str) -> str:
     lines = [f"### {title}", "",
              "| limit set | feasible found | no success found (search tries) | no-judge | planner "
@@ -165,15 +161,15 @@ def markdown_sweep(summary: list[dict], title: str) -> str:
         infeasible = f", {s['infeasible_before_solving']} infeasible before solving" if s["infeasible_before_solving"] else ""
         tries = f" ({s['search_tries_where_none_found']}+ tries)" if s["search_tries_where_none_found"] else ""
         head = (f"| {s['limit_set']} | {s['feasible_found']}/{s['environments']}{infeasible} | {s['none_found']}{tries} "
-                f"| {_f(s['nojudge_success_pct'], '.0f', ' %')} | {s['method']} ")
+                f"| {cell(s['nojudge_success_pct'], '.0f', ' %')} | {s['method']} ")
         if not s["planned"]:
             lines.append(head + "| no generator for these limits | | | | | | |")
             continue
         lines.append(head + f"| {s['success_where_feasible']}/{s['feasible_planned']} "
-                     f"({_f(s['success_where_feasible_pct'], '.0f', ' %')}) | {_f(s['success_probability_mean'], '.3f')} "
-                     f"| {_f(s['gap_pct'], '+.0f', ' pts')} | {_f(s['p_where_none_found'], '.3f')} "
-                     f"| {_f(s['unlikely_where_none_found_pct'], '.0f', ' %')} | {_f(s['verdict_accuracy_pct'], '.0f', ' %')} "
-                     f"| {_f(s['calibrated_share'], '.0%')} |")
+                     f"({cell(s['success_where_feasible_pct'], '.0f', ' %')}) | {cell(s['success_probability_mean'], '.3f')} "
+                     f"| {cell(s['gap_pct'], '+.0f', ' pts')} | {cell(s['p_where_none_found'], '.3f')} "
+                     f"| {cell(s['unlikely_where_none_found_pct'], '.0f', ' %')} | {cell(s['verdict_accuracy_pct'], '.0f', ' %')} "
+                     f"| {cell(s['calibrated_share'], '.0%')} |")
     lines += ["", "Feasible found: environments where any planner, a random constraint-satisfying plan or the "
               "simulator-scored search succeeded. Where none did, the search found no successful plan in the tries "
               "shown: that is not a proof that none exists. p: the success probability the tool reports (calibrated "
