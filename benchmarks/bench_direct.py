@@ -11,12 +11,25 @@ is the shipped default. A variant is `key=value,...` over:
     .venv/bin/python benchmarks/bench_direct.py --n 100                  # the targets (both tasks)
     .venv/bin/python benchmarks/bench_direct.py --n 10 --levers          # every lever, side by side
     .venv/bin/python benchmarks/bench_direct.py --n 20 --simulate        # and replay each plan
+    .venv/bin/python benchmarks/bench_direct.py --n 20 --busy --threads 1 2 --fresh 6
+
+--busy: every solve is timed twice in turn, idle and with every core spun by another process
+(a robot computer's load), and the two are printed side by side with their ratio.
+--threads N ...: torch threads, each count a run of its own in this process.
+--fresh K: also K `judgeopt solve --json --method direct --no-simulate` runs, each a fresh
+process (idle and, with --busy, busy), warm-started and cold: the first solve in a process
+against the warm loop's median above.
 """
 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
+import multiprocessing as mp
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -65,7 +78,49 @@ def parse_variant(text: str) -> tuple[dict, str, dict]:
     return over, backend, opts
 
 
-def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: bool) -> list[dict]:
+class Load:
+    """One spinning process per core, switched on and off between timings (an Event), so idle
+    and busy solves alternate in one run and see the same machine otherwise."""
+
+    def __init__(self, on: bool) -> None:
+        self.event = mp.Event()
+        self.procs = [mp.Process(target=_spin, args=(self.event,), daemon=True) for _ in range(os.cpu_count() or 1)] if on else []
+        for q in self.procs:
+            q.start()
+
+    @contextlib.contextmanager
+    def busy(self):
+        self.event.set()
+        time.sleep(0.05)  # let the spinners take the cores
+        try:
+            yield
+        finally:
+            self.event.clear()
+
+    def close(self) -> None:
+        for q in self.procs:
+            q.terminate()
+
+
+def _spin(event) -> None:
+    while True:
+        event.wait()
+        x = 0
+        while event.is_set():
+            for _ in range(10000):
+                x += 1
+
+
+def timed(load: Load, fn):
+    """fn() idle and, with a load, busy: (idle result, busy result or None)."""
+    idle = fn()
+    if not load.procs:
+        return idle, None
+    with load.busy():
+        return idle, fn()
+
+
+def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: bool, load: Load) -> list[dict]:
     problem = load_problem(resolve(problem_path))
     planners = Planners.load(problem, methods=("amortized", "direct"))
     envs = [problem.env_dict(e) for e in problem.sample_env(np.random.default_rng(seed), n)]
@@ -89,22 +144,63 @@ def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: boo
             judges[backend] = (planners.direct.cjudge if backend == planners.direct.cjudge.backend
                                else build_casadi_judge(planners.judge, backend=backend))
         direct = DirectPlanner(problem.with_overrides(**over), planners.judge, judges[backend], DirectOptions(**opts))
-        direct.solve(envs[0], guess=guesses[0])  # first call: libraries load
+        direct.warm_up(cold=True)  # what a first call pays (kernels, imports): the loop is the steady state
         for start in ("warm", "cold"):
-            out = [direct.solve(env, guess=g if start == "warm" else None) for env, g in zip(envs, guesses)]
-            rows.append({"problem": problem.name, "variant": text or "default", "backend": backend, "start": start,
-                         "time": [r.solve_time_s for r in out], "iterations": [r.iterations for r in out],
-                         "judge_calls": [r.info["judge_calls"] for r in out],
-                         "violation": [max(r.residuals.values()) for r in out],
-                         "p": [r.predicted_success for r in out], "status": [r.status for r in out],
-                         "success": [bool(sim.simulate(r.plan, env).success) if sim else None
-                                     for r, env in zip(out, envs)]})
+            pairs = [timed(load, lambda: direct.solve(env, guess=g if start == "warm" else None))
+                     for env, g in zip(envs, guesses)]
+            out = [a for a, _ in pairs]
+            row = {"problem": problem.name, "variant": text or "default", "backend": backend, "start": start,
+                   "time": [r.solve_time_s for r in out], "iterations": [r.iterations for r in out],
+                   "judge_calls": [r.info["judge_calls"] for r in out],
+                   "violation": [max(r.residuals.values()) for r in out],
+                   "p": [r.predicted_success for r in out], "status": [r.status for r in out],
+                   "success": [bool(sim.simulate(r.plan, env).success) if sim else None
+                               for r, env in zip(out, envs)]}
+            if load.procs:
+                row["busy_time"] = [b.solve_time_s for _, b in pairs]
+            rows.append(row)
     return rows
 
 
+def fresh_runs(problem_path: str, k: int, seed: int, load: Load) -> list[dict]:
+    """The first direct solve of K fresh `judgeopt solve` processes, warm-started and cold,
+    idle and busy: solve_time_s from --json, and the process's wall time."""
+    problem = load_problem(resolve(problem_path))
+    envs = [problem.env_dict(e) for e in problem.sample_env(np.random.default_rng(seed), k)]
+    exe = [sys.executable, "-m", "judgeopt.cli", "solve", "--json", "--method", "direct", "--no-simulate",
+           "--problem", problem_path]
+    rows = []
+    for start in ("warm", "cold"):
+        pairs = []
+        for env in envs:
+            cmd = exe + [f"--{name.replace('_', '-')}={value!r}" for name, value in env.items()]
+            cmd += ["--warm-start", "none"] if start == "cold" else []
+            pairs.append(timed(load, lambda: _cli_time(cmd)))
+        row = {"problem": problem.name, "variant": "fresh process", "start": start,
+               "time": [a[0] for a, _ in pairs], "wall": [a[1] for a, _ in pairs], "success": [None]}
+        if load.procs:
+            row["busy_time"] = [b[0] for _, b in pairs]
+            row["busy_wall"] = [b[1] for _, b in pairs]
+        rows.append(row)
+    return rows
+
+
+def _cli_time(cmd: list[str]) -> tuple[float, float]:
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    try:
+        out = json.loads(res.stdout)
+        return next(r["solve_time_s"] for r in out["results"] if r["method"] == "direct"), wall
+    except (ValueError, KeyError, StopIteration):
+        raise SystemExit(f"{' '.join(cmd)} failed: {res.stderr.strip()[-500:] or res.stdout[-500:]}") from None
+
+
 def report(rows: list[dict]) -> None:
-    print(f"{'problem':<14} {'variant':<62} {'start':<5} {'median':>8} {'p95':>8} {'iter':>5} {'calls':>5} "
-          f"{'worst viol.':>11} {'mean p':>6} {'solved':>7} {'sim':>7}")
+    busy = any("busy_time" in r for r in rows)
+    print(f"{'problem':<14} {'variant':<44} {'start':<5} {'median':>8} {'p95':>8} "
+          + (f"{'busy med.':>9} {'busy/idle':>9} " if busy else "")
+          + f"{'iter':>5} {'calls':>5} {'worst viol.':>11} {'mean p':>6} {'solved':>7} {'sim':>7}")
     for r in rows:
         t = np.array(r["time"]) * 1e3
         it = f"{np.median(r['iterations']):5.0f}" if "iterations" in r else f"{'':5}"
@@ -113,9 +209,17 @@ def report(rows: list[dict]) -> None:
         p = f"{np.mean(r['p']):6.3f}" if "p" in r else f"{'':6}"
         solved = f"{sum(s == 'solved' for s in r['status'])}/{len(r['status'])}" if "status" in r else ""
         sim = f"{sum(r['success'])}/{len(r['success'])}" if r["success"][0] is not None else ""
-        name = r["variant"] + (f" ({r['backend']})" if "backend" in r else "")
-        print(f"{r['problem']:<14} {name:<62} {r['start']:<5} {np.median(t):6.1f}ms {np.percentile(t, 95):6.1f}ms "
-              f"{it} {calls} {viol} {p} {solved:>7} {sim:>7}")
+        name = r["variant"] + (f" ({r['backend']})" if "backend" in r else "") + (f" [{r['threads']}t]" if "threads" in r else "")
+        extra = ""
+        if busy:
+            b = np.array(r.get("busy_time", [np.nan])) * 1e3
+            extra = f"{np.median(b):7.1f}ms {np.median(b) / np.median(t):9.2f} " if "busy_time" in r else " " * 20
+        print(f"{r['problem']:<14} {name:<44} {r['start']:<5} {np.median(t):6.1f}ms {np.percentile(t, 95):6.1f}ms "
+              f"{extra}{it} {calls} {viol} {p} {solved:>7} {sim:>7}")
+        if "wall" in r:
+            w = np.array(r["wall"])
+            bw = f", busy {np.median(r['busy_wall']):.2f} s" if "busy_wall" in r else ""
+            print(f"{'':14} {'  (process wall time, median)':<44} {'':<5} {np.median(w):6.2f} s{bw}")
 
 
 def main() -> None:
@@ -126,14 +230,26 @@ def main() -> None:
     ap.add_argument("--variants", nargs="+", default=[""], help="key=value,... per variant ('' = the default)")
     ap.add_argument("--levers", action="store_true", help="every lever of LEVERS, side by side")
     ap.add_argument("--simulate", action="store_true", help="replay every plan (success k/n)")
-    ap.add_argument("--threads", type=int, default=1, help="torch threads (one process, like a plan call)")
+    ap.add_argument("--threads", type=int, nargs="+", default=[1], help="torch threads, one run per count")
+    ap.add_argument("--busy", action="store_true", help="time every solve idle and with every core busy, in turn")
+    ap.add_argument("--fresh", type=int, default=0, metavar="K", help="also K fresh `judgeopt solve` processes")
     ap.add_argument("--json", help="also write every row here")
     args = ap.parse_args()
-    torch.set_num_threads(args.threads)
+    load = Load(args.busy)
     t0 = time.perf_counter()
-    rows = [r for path in args.problems
-            for r in run(path, LEVERS if args.levers else args.variants, args.n, args.seed, args.simulate)]
-    print(f"\n{args.n} environments per problem (seed {args.seed}), one process, {args.threads} torch thread(s); "
+    rows = []
+    try:
+        for threads in args.threads:
+            torch.set_num_threads(threads)
+            for path in args.problems:
+                for r in run(path, LEVERS if args.levers else args.variants, args.n, args.seed, args.simulate, load):
+                    rows.append({**r, "threads": threads})
+        for path in args.problems if args.fresh else ():
+            rows += fresh_runs(path, args.fresh, args.seed, load)
+    finally:
+        load.close()
+    print(f"\n{args.n} environments per problem (seed {args.seed}), one process, torch threads {args.threads}"
+          f"{', each solve idle and with ' + str(os.cpu_count()) + ' cores spun' if args.busy else ''}; "
           f"{time.perf_counter() - t0:.0f} s in all")
     report(rows)
     if args.json:

@@ -19,6 +19,7 @@ from typing import Any, Mapping, Sequence
 
 from judgeopt.planners.problem import Problem, find_problem
 from judgeopt.planners.problem import load_problem as _load_problem_file
+from judgeopt.threads import DEFAULT_THREADS, torch_threads
 
 
 def load_problem(name: str | Path = "paper_sim", **overrides: Any) -> Problem:
@@ -40,19 +41,22 @@ def load_planners(problem: Problem | str = "paper_sim", methods: Sequence[str] =
 
 
 def solve(problem: Any = "paper_sim", methods: Sequence[str] = ("amortized", "direct"), simulate: bool = True,
-          world: Mapping[str, float] | None = None, **options: Any) -> Any:
+          world: Mapping[str, float] | None = None, threads: int | None = DEFAULT_THREADS, **options: Any) -> Any:
     """Plan for the problem's environment and give the `SolveReport` (results, notes, verdict,
     suggestions) that `judgeopt solve` prints (judgeopt.planners.session.solve). `problem`: a
     Problem, a name, or planners already loaded (`load_planners`, to solve again without
     reloading); `simulate`: replay each plan in the task's scene, in `world` where it differs
-    from what the planners were told; `options`: session.solve's (warm_start, ranges, suggest)."""
+    from what the planners were told; `threads`: torch threads during the call (judgeopt.threads: one
+    holds when the cores are busy; None leaves the process's setting); `options`: session.solve's
+    (warm_start, ranges, suggest)."""
     from judgeopt.planners import session
     from judgeopt.planners.solve import Planners
 
     planners = problem if isinstance(problem, Planners) else load_planners(problem, methods)
     sim = simulator(planners.problem.task) if simulate else None
     try:
-        return session.solve(planners, simulator=sim, world=world, **options)
+        with torch_threads(threads):
+            return session.solve(planners, simulator=sim, world=world, **options)
     finally:
         if sim is not None and hasattr(sim, "close"):
             sim.close()

@@ -96,10 +96,11 @@ class Parser(argparse.ArgumentParser):
         super().__init__(*args, **kwargs)
 
     def error(self, message: str):
-        if wants_json():
-            print_error(self.prog, message, ExitCode.USAGE)
-            sys.exit(ExitCode.USAGE)
-        super().error(message)
+        """One line (the usage is one --help away), or under --json one object."""
+        if not wants_json():
+            message += f" (`{self.prog} --help` lists the options)"
+        print_error(self.prog, message, ExitCode.USAGE)
+        sys.exit(ExitCode.USAGE)
 
 
 def _parent() -> argparse.ArgumentParser:
@@ -132,11 +133,14 @@ def jobs_option(default: int = -1) -> argparse.ArgumentParser:
     return p
 
 
-def threads_option(default: int | None = None) -> argparse.ArgumentParser:
-    """--threads: torch threads in this process (1 is bit-reproducible)."""
+def threads_option() -> argparse.ArgumentParser:
+    """--threads: torch threads in this process (judgeopt.threads: one holds under load)."""
+    from judgeopt.threads import DEFAULT_THREADS
+
     p = _parent()
-    p.add_argument("--threads", type=positive, default=default, metavar="N",
-                   help="torch threads (1: bit-reproducible" + ("; default: all cores)" if default is None else ")"))
+    p.add_argument("--threads", type=positive, default=DEFAULT_THREADS, metavar="N",
+                   help="torch threads in this process (1: holds when other programs busy the cores, and is "
+                   "bit-reproducible; more may speed training on an idle machine)")
     return p
 
 

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from judgeopt.cli.common import (CLIError, QUIET, env_range, floats, jobs_option, name_values, out_option, positive,
-                                 seed_option, value_range)
+                                 seed_option, threads_option, value_range)
 
 def _table_names() -> list[str]:
     """`planners`, `sweep`, `robustness` and every task's own tables (the scoop's table4, table5, compare)."""
@@ -365,7 +365,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
                        "interrupted run resumes.",
                        parents=[out_option("DIR", "output folder, default out/evaluate/TABLE (an unfinished one "
-                                           "resumes)"), seed_option(), jobs_option(), QUIET])
+                                           "resumes)"), seed_option(), jobs_option(), threads_option(), QUIET])
     e.add_argument("table", choices=_table_names(),
                    help="planners: both planners, the CEM and the no-judge baseline (any task); sweep: held-out limit "
                    "sets, with the no-judge baseline and a feasibility search in simulation; robustness: each "

@@ -44,7 +44,6 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     init, init_meta = _init_judge(args) if args.init else (None, None)
     args.arch = args.arch or DEFAULT_ARCH  # None until here: an --arch given with --init is refused, even lstm
     given = arch_settings(args)  # a bad --arch or --set before any data is read
-    torch.set_num_threads(args.threads or os.cpu_count() or 1)
     parts = [load(p) for p in args.train]
     try:
         train_ds = concatenate(parts) if len(parts) > 1 else parts[0]
@@ -203,9 +202,6 @@ def cmd_test_judge(args: argparse.Namespace) -> int:
     from judgeopt.judge.evaluate import evaluate_judge, format_metrics
     from judgeopt.judge.store import load_judge
 
-    if args.threads:
-        import torch
-        torch.set_num_threads(args.threads)
     model_path = resolve(args.judge, (".json",))
     model, meta = load_judge(model_path)
     ds = load(args.data)
@@ -381,7 +377,7 @@ def add_ensemble_command(sub) -> None:
                        "([models] ensemble, [solver] pessimism)",
                        description="Resumable: finished members are kept; rerun to complete an interrupted run.",
                        parents=[out_option("DIR", "folder (the shipped one is models/judge_ensemble)",
-                                           default="out/judge_ensemble"), OVERWRITE, seed_option(), threads_option(1),
+                                           default="out/judge_ensemble"), OVERWRITE, seed_option(), threads_option(),
                                 QUIET])
     e.add_argument("--train", default="data/train.h5", metavar="FILE", help="training demonstrations (HDF5)")
     e.add_argument("--test", default="data/test.h5", metavar="FILE", help="held-out demonstrations (HDF5)")

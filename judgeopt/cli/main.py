@@ -14,7 +14,7 @@ import numpy as np
 from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, env_range, env_values, jobs_option, missing_extra,
-                                 out_option, positive, print_error, seed_option, set_argv, value_range, wants_json)
+                                 out_option, positive, print_error, seed_option, set_argv, threads_option, value_range, wants_json)
 from judgeopt.files import refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
 
@@ -150,7 +150,7 @@ def build_parser() -> argparse.ArgumentParser:
                        "values, default the task's grid: the scoop's is the paper's 3 x 3) or --n random environments. "
                        "Interrupted runs resume from OUT.partial/.",
                        parents=[out_option("FILE", "HDF5 file to write (an unfinished one resumes)", required=True),
-                                OVERWRITE, seed_option(), jobs_option(), QUIET])
+                                OVERWRITE, seed_option(), jobs_option(), threads_option(), QUIET])
     c.add_argument("--n", type=int, default=1000, help="number of demonstrations in random environments")
     c.add_argument("--per-env", type=int, default=0, help="demonstrations per grid environment (makes a grid)")
     c.add_argument("--task", default=DEFAULT_TASK, help="the task to collect (`judgeopt tasks` lists them)")
@@ -290,6 +290,10 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     command = f"judgeopt {args.command}"
     _log_to_stderr(getattr(args, "quiet", False))
+    if getattr(args, "threads", None) is not None:
+        from judgeopt.threads import set_threads
+
+        set_threads(args.threads)
     try:
         return int(args.func(args))
     except KeyboardInterrupt:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -382,7 +381,6 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
     check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
     for note in coverage_notes(problem, jmeta):
         print(f"judgeopt train-generator: warning: {note}", file=sys.stderr)
-    torch.set_num_threads(args.threads or os.cpu_count() or 1)
     tc = GeneratorTrainConfig(epochs=args.epochs, batch=args.batch, lr=args.lr, seed=args.seed,
                               threads=args.threads, progress=not args.quiet, margin=margin_shifts(args.margin, problem),
                               margin_weight=args.margin_weight)
@@ -451,7 +449,7 @@ def _write_history(history: list[dict], out: Path) -> None:
 def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s = sub.add_parser("solve", help="plan a motion under the problem's limits with the shipped models",
                        parents=[out_option("FILE", "write each plan as CSV at 1 kHz, the importer's columns (one file "
-                                           "per method: NAME_METHOD.csv)"), OVERWRITE, JSON, QUIET],
+                                           "per method: NAME_METHOD.csv)"), OVERWRITE, JSON, QUIET, threads_option()],
                        description="Plan with the amortised generator and/or the direct Ipopt solve against the "
                        "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
@@ -498,7 +496,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     t = sub.add_parser("train-generator", help="train the amortised generator through the frozen judge (eqs. 2-4)",
                        parents=[out_option("STEM", "model path without suffix, e.g. out/generator_slow (writes "
                                            "STEM.pt and STEM.json)", required=True), OVERWRITE, seed_option(),
-                                threads_option(1), QUIET],
+                                threads_option(), QUIET],
                        description="Each epoch samples --batch environments from the problem's ranges and takes one "
                        "Adam step on L = L1 + L2. Seeded and deterministic for a given thread count.")
     add_problem_arguments(t)

@@ -92,7 +92,7 @@ def plot(figures: list[dict]) -> Figure:
 
 
 def add_refine_commands(sub: argparse._SubParsersAction) -> None:
-    from judgeopt.cli.common import OVERWRITE, QUIET, jobs_option, out_option, positive, seed_option
+    from judgeopt.cli.common import OVERWRITE, QUIET, jobs_option, out_option, positive, seed_option, threads_option
     from judgeopt.cli.planners import add_limit_range_arguments, add_problem_arguments
 
     r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",
@@ -101,7 +101,7 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
                        "judge (and with --generator-epochs the generator). Parallel like collection; a rerun "
                        "resumes. Models go to --out; models/ changes only with --install NAME.",
                        parents=[out_option("DIR", "folder for every round's plans, outcomes and models (a rerun "
-                                           "resumes it)", default="out/refine"), OVERWRITE, seed_option(), jobs_option(), QUIET])
+                                           "resumes it)", default="out/refine"), OVERWRITE, seed_option(), jobs_option(), threads_option(), QUIET])
     add_problem_arguments(r)
     r.add_argument("--rounds", type=positive, default=3, help="rounds of plan, replay, fine-tune")
     r.add_argument("--n", type=int, default=150, help="environments per round")
