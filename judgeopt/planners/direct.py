@@ -340,6 +340,20 @@ class DirectPlanner(Planner):
         f = x[3 * n * na:].reshape(nf, n + 1).T * SCALE_F
         return plan_from_parts(pr, q, v, f)
 
+    def warm_up(self, cold: bool = False) -> float:
+        """Pay now what the first solve in a process would pay on its own, and return the
+        seconds: the judge's value and gradient once (torch builds its kernels for the shapes,
+        l4casadi loads its traced models), and with `cold` the cold start's sampling (the task's
+        command sampler imports its spline library). Solves after it take their steady time."""
+        t0 = time.perf_counter()
+        pr = self.problem
+        env = pr.nominal_env()
+        guess = default_guess(pr, env)
+        self.cjudge.value_and_gradient(guess.as_array().ravel(), judge_env(self.judge, env))
+        if cold:
+            cold_start(pr, env, self.judge, guess)
+        return time.perf_counter() - t0
+
     def solve(self, env: dict[str, float], guess: Plan | None = None,
               env_set: list[dict[str, float]] | None = None) -> PlanResult:
         """Solve for one environment; infeasible limits are reported without calling Ipopt.

@@ -205,3 +205,21 @@ def test_the_objective_is_chosen_on_the_command_line(capsys):
     assert main(["solve", "--objective", "max", "--no-simulate"]) == 2
     err = capsys.readouterr().err
     assert "objective = 'max'" in err and err.strip().endswith("choose one of target, log_p")
+
+
+@pytest.mark.parametrize("backend", ["native", "torch32"])
+def test_warming_up_changes_no_plan(judge, backend):
+    """warm_up pays the first solve's one-off costs; the judge callback keeps the last point it
+    saw, so a warm-up that left it stale would change the next solve's gradients."""
+    from judgeopt.judge.casadi_fn import build_casadi_judge
+
+    problem = HARD.with_overrides(qdot_max=0.5)
+    plans = []
+    for warm in (False, True):
+        planner = DirectPlanner(problem, judge, build_casadi_judge(judge, backend))
+        if warm:
+            assert planner.warm_up(cold=True) > 0
+        r = planner.solve(ENV)
+        plans.append((r.plan.as_array(), r.iterations, r.status))
+    np.testing.assert_array_equal(plans[0][0], plans[1][0])
+    assert plans[0][1:] == plans[1][1:]

@@ -98,9 +98,12 @@ class ScoopTask(Task):
 
     def random_command(self, rng: np.random.Generator, env: Mapping[str, float],
                        settings: ScoopSettings | None = None) -> np.ndarray:
-        from judgeopt.tasks.scoop.commands import random_command
+        from judgeopt.tasks.scoop.commands import RandomCommandConfig, random_command
 
-        return random_command(rng, float(env["y_obj"]), (settings or ScoopSettings()).commands).as_array()
+        # not ScoopSettings(): its scene and controller import PyBullet and Pinocchio, which a
+        # planner's cold start (commands only) never needs
+        cfg = settings.commands if settings is not None else RandomCommandConfig()
+        return random_command(rng, float(env["y_obj"]), cfg).as_array()
 
     def simulator(self, settings: ScoopSettings | None = None) -> TaskSimulator:
         from judgeopt.tasks.scoop.world import WorldSimulator
