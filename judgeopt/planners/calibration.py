@@ -141,14 +141,12 @@ class Calibrator:
         lo, hi = np.asarray(self.env_low), np.asarray(self.env_high)
         tol = 1e-9 + RANGE_MARGIN * (hi - lo)
         inside = np.all((env >= lo - tol) & (env <= hi + tol), axis=1)
-        return inside & (_kth_distance(self._scaled(env, predicted), self._tree) <= self.cover_radius)
+        return inside & (kth_distance(self._scaled(env, predicted), self._points) <= self.cover_radius)
 
     @cached_property
-    def _tree(self) -> Any:
-        """The fitted points' k-d tree, built once per calibrator (not a field: never saved)."""
-        from scipy.spatial import cKDTree
-
-        return cKDTree(np.asarray(self.points))
+    def _points(self) -> np.ndarray:
+        """The fitted points as one array, made once per calibrator (not a field: never saved)."""
+        return np.asarray(self.points, float)
 
     def annotate(self, env: dict[str, float], predicted: float) -> dict[str, Any]:
         """What a plan's result carries: the calibrated success, and whether the calibration covers it."""
@@ -157,13 +155,18 @@ class Calibrator:
                 "calibration_covers": bool(self.covers(e, [predicted])[0])}
 
 
-def _kth_distance(query: np.ndarray, points: Any, k: int = NEIGHBOURS) -> np.ndarray:
-    """Each query's distance to its k-th nearest point (`points`: an array, or its cKDTree)."""
-    from scipy.spatial import cKDTree
-
-    tree = points if isinstance(points, cKDTree) else cKDTree(points)
-    d, _ = tree.query(query, k=[min(k, tree.n)])
-    return d[:, 0]
+def kth_distance(query: np.ndarray, points: np.ndarray, k: int = NEIGHBOURS, chunk: int = 256) -> np.ndarray:
+    """Each query's distance to its k-th nearest point, by brute force: a plan asks once against
+    about a thousand fitted points (tens of microseconds), and scipy.spatial's k-d tree would
+    cost half a second of import in every `solve` (benchmarks/bench_calibration.py)."""
+    points = np.asarray(points, float)
+    k = min(k, len(points))
+    out = np.empty(len(query))
+    for i in range(0, len(query), chunk):
+        q = query[i:i + chunk]
+        d2 = ((q[:, None, :] - points[None, :, :]) ** 2).sum(axis=2)
+        out[i:i + chunk] = np.sqrt(np.partition(d2, k - 1, axis=1)[:, k - 1])
+    return out
 
 
 def _kth_distance_to_others(points: np.ndarray, groups: np.ndarray, k: int = NEIGHBOURS) -> np.ndarray:
@@ -173,7 +176,7 @@ def _kth_distance_to_others(points: np.ndarray, groups: np.ndarray, k: int = NEI
     out = np.empty(len(points))
     for g in np.unique(groups):
         mine, others = groups == g, points[groups != g]
-        out[mine] = _kth_distance(points[mine], others, k) if len(others) else np.inf
+        out[mine] = kth_distance(points[mine], others, k) if len(others) else np.inf
     return out
 
 
