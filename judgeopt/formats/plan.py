@@ -22,7 +22,8 @@ also reads version 1, whose columns were always q, qdot, f):
                                 and the simulated controller compute them (9 significant digits)
     problem                     the whole problem (`Problem.to_dict()`: limits, terminal
                                 constraints, weights, environment ranges, judge)
-    provenance                  judge {path, weights_sha256}, generator {path, weights_sha256,
+    provenance                  judge {path, weights_sha256, and for the direct solve backend: the
+                                CasADi function it planned through}, generator {path, weights_sha256,
                                 role} or null, judgeopt_version, git_commit, git_dirty (null
                                 outside a git checkout), command, created (UTC, ISO 8601),
                                 python, platform
@@ -131,6 +132,8 @@ def plan_record(result: Any, problem: Any, provenance: dict[str, Any], step: flo
     role = ("planner" if result.method == "amortized"
             else "warm start" if result.info.get("warm_start") == "generator" else None)
     prov["generator"] = {**prov["generator"], "role": role} if role and prov.get("generator") else None
+    if result.info.get("judge_backend") and prov.get("judge"):
+        prov["judge"] = {**prov["judge"], "backend": result.info["judge_backend"]}
     sim = {k.removeprefix("sim_"): v for k, v in result.info.items() if k.startswith("sim_")}
     other = {k: v for k, v in result.info.items() if not k.startswith("sim_")}
     record = {

@@ -411,7 +411,8 @@ class DirectPlanner(Planner):
         plan = self._unpack(x)
         residuals = constraint_residuals(pr, plan, env)
         traj, je = plan.as_array().ravel(), judge_env(self.judge, env)
-        info = {"ipopt_status": ipopt_status, "warm_start": warm, "judge_calls": judge_calls, "rounds": rounds}
+        info = {"ipopt_status": ipopt_status, "warm_start": warm, "judge_calls": judge_calls, "rounds": rounds,
+                "judge_backend": self.cjudge.backend}
         if self.members:  # the ensemble's own prediction: the mean of its members' probabilities
             z = np.array([float(m.fn(traj, je)[0]) for m in self.members])
             prob = float(np.mean(sigmoid(z)))

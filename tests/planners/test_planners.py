@@ -290,6 +290,9 @@ def test_solve_both_methods_in_simulation(capsys):
         assert max(r["ydot"]) <= 0.4 + 1e-6 and r["verdict"] == "likely"
     direct = out["results"][1]
     assert direct["max_constraint_violation"] < 1e-6 and direct["warm_start"] == "generator"
+    from judgeopt.judge.casadi_fn import BACKENDS
+
+    assert direct["judge_backend"] in BACKENDS  # the function it planned through, named
 
 
 # -- JSON plan export with provenance ----------------------------------------------------------------
@@ -304,7 +307,7 @@ def _exported(tmp_path, **change):
     plan = min_jerk_plan(-0.03, 0.2, 1.2, 12.0)
     r = PlanResult("direct", env, plan, 0.93, "solved", 0.81, constraint_residuals(problem, plan, env), iterations=17,
                    simulated_success=True, info={"warm_start": "generator", "sim_object_rise": np.float64(0.041),
-                                                 "ipopt_status": "Solve_Succeeded"})
+                                                 "ipopt_status": "Solve_Succeeded", "judge_backend": "l4casadi"})
     for k, v in change.items():
         setattr(r, k, v)
     prov = plan_provenance(ROOT / "models" / "judge_default", "abc123", ROOT / "models" / "generator_paper_sim",
@@ -333,7 +336,8 @@ def test_plan_json_reads_back_the_plan_with_its_context_and_provenance(tmp_path)
     y, f = x[:, 0], x[:, 2]
     assert np.abs(np.array(fine["y"]) - y).max() < 1e-9 and np.abs(np.array(fine["f"]) - f).max() < 1e-6
     p = rec["provenance"]
-    assert p["judge"] == {"path": str(ROOT / "models" / "judge_default"), "weights_sha256": "abc123"}
+    assert p["judge"] == {"path": str(ROOT / "models" / "judge_default"), "weights_sha256": "abc123",
+                          "backend": "l4casadi"}  # the direct solve's CasADi function, from its result
     gen_meta = json.loads((ROOT / "models" / "generator_paper_sim.json").read_text())
     assert p["generator"]["weights_sha256"] == gen_meta["weights_sha256"] and p["generator"]["role"] == "warm start"
     assert p["judgeopt_version"] and p["command"] == "judgeopt solve --save-json plan.json" and "T" in p["created"]
