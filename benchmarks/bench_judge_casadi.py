@@ -3,10 +3,13 @@
 Any saved judge (--model, default the shipped LSTM 2 x 100, FC 2 x 102), or a random
 default-size judge of an architecture (--arch), at its horizon (N = 30), one trajectory.
 Prints per-call times (median of --repeat calls after a warm-up), their ratios to torch
-autograd (float32 as trained, and float64), build times, and the time of a second build (cache hit).
+autograd (float32 as trained, and float64) and to the torch32 callback (`/cb32`, the direct
+solve's judge before l4casadi32; where torch:float32 or torch32 is among --backends), build
+times, and the time of a second build (cache hit).
 Backends the architecture does not offer (native and compiled need a CasADi graph) are skipped.
 
     .venv/bin/python benchmarks/bench_judge_casadi.py [--model models/judge_default | --arch tcn] [--threads 1]
+    .venv/bin/python benchmarks/bench_judge_casadi.py --model models/judge_refined --backends torch32,l4casadi32
 
 --cache-dir defaults to a fresh temporary folder so the build times are real builds.
 """
@@ -46,7 +49,7 @@ def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--model", default="models/judge_default", help="saved judge (random default-size one if absent)")
     p.add_argument("--arch", choices=list(ARCHS), help="a random default-size judge of this architecture instead")
-    p.add_argument("--backends", default="native,compiled,torch,torch:float32,l4casadi",
+    p.add_argument("--backends", default="native,compiled,torch,torch:float32,l4casadi,l4casadi32",
                    help=f"comma-separated from {list(BACKENDS)}; torch:float32 for the float32 callback")
     p.add_argument("--repeat", type=int, default=30)
     p.add_argument("--rounds", type=int, default=3, help="interleaved timing rounds (best median kept)")
@@ -124,16 +127,21 @@ def main() -> None:
             r["value_s"] = min(r.get("value_s", np.inf), timeit(v, x, args.repeat))
     ref = results["torch autograd float64"]["value_grad_s"]
     ref32 = results["torch autograd float32"]["value_grad_s"]
+    cb32 = next((results[k]["value_grad_s"] for k in ("casadi torch32", "casadi torch:float32") if k in results), None)
 
-    print(f"\n{'':26s} {'value+grad':>11s} {'value':>9s} {'/torch64':>9s} {'/torch32':>9s} {'build':>8s} "
+    print(f"\n{'':26s} {'value+grad':>11s} {'value':>9s} {'/torch64':>9s} {'/torch32':>9s} {'/cb32':>6s} {'build':>8s} "
           f"{'2nd build':>10s} {'grad err':>9s}")
     for name, r in results.items():
         build = f"{r['build_s']:7.2f}s" if "build_s" in r else ""
         second = (f"{r['second_build_s']:6.3f}s{' hit' if r['second_build_cache_hit'] else ''}"
                   if "build_s" in r else "")
         err = f"{r['grad_rel_err']:.1e}" if "grad_rel_err" in r else ""
+        if cb32 is not None:
+            r["per_torch32_callback"] = r["value_grad_s"] / cb32
+        vs_cb = f"{r['value_grad_s'] / cb32:6.2f}" if cb32 is not None else ""
         print(f"{name:26s} {1e3 * r['value_grad_s']:9.2f}ms {1e3 * r['value_s']:7.2f}ms "
-              f"{r['value_grad_s'] / ref:9.2f} {r['value_grad_s'] / ref32:9.2f} {build:>8s} {second:>10s} {err:>9s}")
+              f"{r['value_grad_s'] / ref:9.2f} {r['value_grad_s'] / ref32:9.2f} {vs_cb:>6s} {build:>8s} "
+              f"{second:>10s} {err:>9s}")
     if args.json:
         Path(args.json).write_text(json.dumps({"model": source, "arch": cfg.arch, "threads": args.threads, "repeat": args.repeat,
                                                "rounds": args.rounds, "results": results}, indent=1) + "\n")

@@ -7,23 +7,34 @@ Inputs, raw physical values as the judge was trained on:
 Outputs: logit (1x1) and prob = sigmoid(logit) (1x1). First derivatives are exact.
 
 Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py, docs/judge.md):
-  "l4casadi"   ("auto" where installed and the use needs float64) l4casadi 2.0: TorchScript traces of the unrolled network (one-Linear
-               LSTM cell, float64) compiled into a shared library, cached per model. Its C++
-               side casts inputs to float32, so inputs are sent as exact float32 hi/lo halves
-               (see _split_normalized). Fastest float64 backend (0.76x torch autograd in
-               float64 for value + gradient); about 16 s to build once per model.
+  "l4casadi32" ("auto" for a noise-tolerant use, where l4casadi is installed and the architecture
+               is in AUTO_L4CASADI32: the direct solve's judge as a constraint) l4casadi 2.0 on the
+               architecture's FLOAT32 flat module (Arch.flat_module32: for the LSTM oneDNN's
+               fused layer op, for the TCN its convolutions as matrix products), inputs
+               normalised in CasADi (l4casadi's C++ side casts them to float32, which is what a
+               float32 network reads anyway). Only the value and the reverse-mode derivative
+               (adj1) are traced: what the solve calls. Value + gradient: LSTM 0.8-1.07x the
+               torch32 callback's time, TCN 0.2-0.4x; value alone about half the callback's.
+               2-5 s to build once per model, cached; ~1e-7 relative noise like torch32.
+  "l4casadi"   ("auto" where installed and the use needs float64) l4casadi 2.0: TorchScript traces
+               of the unrolled network (one-Linear LSTM cell, float64) compiled into a shared
+               library, cached per model. Its C++ side casts inputs to float32, so inputs are sent
+               as exact float32 hi/lo halves (see _split). The fastest float64 backend, but 2-4x
+               slower than the float32 ones: the unrolled cell runs op by op in float64. About
+               16 s (TCN 2-5 s) to build once per model.
   "torch"      a casadi.Callback around torch autograd (reverse mode: one backward pass; the
                forward graph of the last point is kept). No build; needs Python at solve
                time; precision="float32" is 4.5x faster but its ~1e-6 noise stalls Ipopt.
   "torch32"    the same callback in float32 (precision="float32"): the network as trained, its
                value and gradient 3-4x cheaper; the noise (~1e-7 relative) is harmless where the
                judge is a constraint (the direct solve's objective "target"), not where -log p
-               is driven to a tight tolerance.
+               is driven to a tight tolerance. "auto"'s choice for that use where l4casadi32 is
+               not (l4casadi missing, an architecture not measured, or a build that failed).
   "native"     the network as a CasADi MX graph (0.1 s to build, no Python or libtorch at
                solve time, usable in code generation); about 1.7x torch autograd (float64).
   "compiled"   that graph generated as C and compiled with gcc -O2 (about 80 s, cached).
 "native" and "compiled" exist only for architectures with a CasADi graph (Arch.casadi_graph:
-the LSTM); l4casadi and the torch callbacks take any architecture (backends_for).
+the LSTM); l4casadi, l4casadi32 and the torch callbacks take any architecture (backends_for).
 """
 
 from __future__ import annotations
@@ -50,25 +61,36 @@ from torch import nn
 from judgeopt.judge.archs import casadi_sigmoid
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
 
-BACKENDS = ("native", "compiled", "torch", "torch32", "l4casadi")
+BACKENDS = ("native", "compiled", "torch", "torch32", "l4casadi", "l4casadi32")
 #: the backends that need the network as a CasADi MX graph (Arch.native_logit)
 GRAPH_BACKENDS = ("native", "compiled")
-#: "auto": l4casadi where it is installed (the fastest exact float64 backend, docs/judge.md), else native
+#: "auto" is a rule, not one backend (choose_backend): for a noise-tolerant use (the direct solve's
+#: judge as a constraint) l4casadi32 where l4casadi is installed and the architecture is in
+#: AUTO_L4CASADI32, else the torch32 callback; otherwise l4casadi (float64) where installed, else native
 DEFAULT_BACKEND = "auto"
+#: architectures whose l4casadi32 measured <= 1.1x the torch32 callback's time for value + gradient
+#: (benchmarks/bench_judge_casadi.py, docs/judge.md "l4casadi in float32"); "auto" gives the
+#: others torch32. An architecture is added here by measurement, not by default.
+AUTO_L4CASADI32 = frozenset({"lstm", "tcn"})
 log = logging.getLogger("judgeopt")
 
 
 def choose_backend(backend: str = DEFAULT_BACKEND, noise_tolerant: bool = False,
                    config: JudgeConfig | None = None) -> str:
-    """`backend` itself, or for "auto" the fastest one for the use: where ~1e-7 relative noise
-    is harmless (`noise_tolerant`: the judge as a constraint) the float32 callback, 3-4x
-    faster than any float64 one (benchmarks/bench_direct.py --levers); else l4casadi where it
-    is installed, else native (torch for an architecture without a CasADi graph, `config`)."""
+    """`backend` itself, or for "auto" the fastest one for the use. Where ~1e-7 relative noise
+    is harmless (`noise_tolerant`: the judge as a constraint): l4casadi32 (the network in float32
+    inside l4casadi) where l4casadi is installed and the architecture (`config`; None counts as
+    the LSTM) is in AUTO_L4CASADI32, else the torch32 callback; both are 3-4x faster than any
+    float64 backend. Otherwise l4casadi (float64) where it is installed, else native (torch for
+    an architecture without a CasADi graph). build_casadi_judge falls back from an "auto"
+    l4casadi32 that fails to build to torch32, with one warning line."""
     if backend != "auto":
         return backend
+    installed = importlib.util.find_spec("l4casadi") is not None
     if noise_tolerant:
-        return "torch32"
-    if importlib.util.find_spec("l4casadi") is not None:
+        arch = config.arch if config is not None else "lstm"
+        return "l4casadi32" if installed and arch in AUTO_L4CASADI32 else "torch32"
+    if installed:
         return "l4casadi"
     return "native" if config is None or config.spec.casadi_graph else "torch"
 
@@ -145,10 +167,21 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
     precision applies to the torch backend: "float64" (default) evaluates a float64 copy of
     the network, exact to rounding; "float32" runs the network as trained, several times
     faster on CPU (oneDNN's fused LSTM kernel) but with ~1e-7 relative noise in value and
-    gradient, which can stall a line search at tight tolerances. The other backends are float64.
-    `noise_tolerant`: what "auto" may choose (choose_backend).
+    gradient, which can stall a line search at tight tolerances. l4casadi32 is float32 and the
+    other backends float64, whatever `precision` says.
+    `noise_tolerant`: what "auto" may choose (choose_backend). Where "auto" chose l4casadi32 and
+    it cannot be built (l4casadi or a compiler missing, a trace that fails or disagrees with
+    torch), the torch32 callback is returned and one warning line names the fallback; an
+    explicitly requested backend raises CasadiBuildError instead.
     """
+    auto = backend == "auto"
     backend = choose_backend(backend, noise_tolerant, judge.config)
+    if auto and backend == "l4casadi32":
+        try:
+            return build_casadi_judge(judge, "l4casadi32", cache_dir, name)
+        except CasadiBuildError as exc:
+            log.warning("judge backend: l4casadi32 could not be built (%s); falling back to torch32", exc)
+            return build_casadi_judge(judge, "torch32", cache_dir, name)
     if backend not in BACKENDS:
         raise JudgeError(f"unknown CasADi backend {backend!r}; choose one of {['auto', *BACKENDS]}")
     if backend not in backends_for(judge.config):
@@ -169,17 +202,39 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
     root = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     if backend == "compiled":
         fn, hit, where = _compiled_function(judge, root)
+    elif backend == "l4casadi32":
+        fn, hit, where = _l4casadi32_function(judge, root)
     else:
         fn, hit, where = _l4casadi_function(judge, root)
     x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", judge.config.n_env)
     if backend == "compiled":
         logit, prob = fn(x, e)
     else:
-        out = fn(_split_normalized(judge, x, e).T)
+        z = _normalized(judge, x, e)
+        out = fn((z if backend == "l4casadi32" else _split(z)).T)
         logit, prob = out[0, 0], out[0, 1]
     wrapped = cs.Function(name, [x, e], [logit, prob], ["traj", "env"], ["logit", "prob"])
-    return CasadiJudge(wrapped, backend, time.perf_counter() - t0, cache_hit=hit, cache_dir=where,
-                       horizon=judge.config.horizon, n_env=judge.config.n_env, _keep=[fn])
+    out = CasadiJudge(wrapped, backend, 0.0, cache_hit=hit, cache_dir=where, horizon=judge.config.horizon,
+                      n_env=judge.config.n_env, _keep=[fn])
+    if backend == "l4casadi32":
+        _warm(out, judge)
+    out.build_seconds = time.perf_counter() - t0
+    return out
+
+
+def _warm(cj: CasadiJudge, judge: Judge) -> None:
+    """Two value + gradient calls at the normalisation's means: TorchScript's profiling executor
+    profiles the traces on their first call and optimises them on the second (measured on the
+    first six calls in a fresh process: LSTM 78, 13, 3.0, 2.6 ms; TCN 27, 37, 2.8, 2.3 ms), so
+    without this the first solve would pay 40-90 ms that no later one pays."""
+    n1 = judge.config.horizon + 1
+    traj = np.tile(judge.x_mean.double().numpy(), n1)
+    env = judge.e_mean.double().numpy()
+    try:
+        for shift in (0.0, 1e-3):
+            cj.value_and_gradient(traj + shift, env)
+    except Exception as exc:  # the library loaded but does not evaluate: a build error, so "auto" falls back
+        raise CasadiBuildError(f"the built library does not evaluate: {_one_line(exc)}") from None
 
 
 def _n_traj(judge: Judge) -> int:
@@ -274,6 +329,170 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
     return cs.external(name, str(lib)), False, where
 
 
+# -- l4casadi, float32 ------------------------------------------------------------------------
+#: what the l4casadi32 build generates, part of its cache key: the value and the reverse-mode
+#: derivative (adj1) only. The direct solve differentiates the judge by cs.gradient (one reverse
+#: sweep per judge row), and counted over its solves CasADi asks the judge's function for reverse(1)
+#: and never for its Jacobian (docs/judge.md); no Hessian traces (Ipopt's judge curvature is left
+#: out or approximated). cs.jacobian of the function still works, from adj1 sweeps.
+_L4C32_TRACES = "value+adj1|v1"
+
+
+def _l4casadi32_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Path]:
+    """l4casadi of the architecture's float32 flat module (Arch.flat_module32; for the LSTM
+    oneDNN's fused layer op) on inputs normalised in CasADi, value and adj1 traces only,
+    built once per model and cached. The build is checked before it is published: the
+    frozen traces (what libl4casadi runs) must load and agree with eager torch."""
+    try:
+        import l4casadi
+    except ImportError as exc:
+        raise CasadiBuildError(f"l4casadi is not installed ({exc})") from None
+    version = getattr(l4casadi, "__version__", "?")
+    try:
+        model = _identity_normalization(judge.config.spec.flat_module32(judge)).eval()
+    except Exception as exc:
+        raise CasadiBuildError(f"no float32 module for l4casadi: {_one_line(exc)}") from None
+    module = f"{type(model).__module__}.{type(model).__qualname__}"  # its formulation is part of the key
+    key = _cache_key(judge, "l4casadi32", f"{version}|{torch.__version__}|float32|{_L4C32_TRACES}|{module}")
+    name = f"judge_l4c32_{key}"
+    where = root / "l4casadi32" / key
+    lib = where / f"lib{name}.so"
+    if not ((where / "complete.json").exists() and lib.exists()):
+        if shutil.which("gcc") is None:
+            raise CasadiBuildError("no C compiler: gcc is not on PATH")
+        log.info("building the judge library in float32 (once per judge, a few seconds; cached in %s)", where)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
+        try:
+            _build_l4casadi32(l4casadi, model, name, tmp, where, _n_traj(judge) + judge.config.n_env)
+            (tmp / "complete.json").write_text(json.dumps({"backend": "l4casadi32", "l4casadi": version,
+                                                           "torch": torch.__version__, "traces": _L4C32_TRACES,
+                                                           "module": module}))
+            _publish(tmp, where)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+        hit = False
+    else:
+        hit = True
+    try:
+        return cs.external(name, str(lib)), hit, where
+    except RuntimeError as exc:
+        raise CasadiBuildError(f"could not load {lib}: {_one_line(exc)}") from None
+
+
+def _one_line(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text[:200]}"
+
+
+def _build_l4casadi32(l4casadi: Any, model: nn.Module, name: str, tmp: Path, where: Path, n_in: int) -> None:
+    """Trace, check and compile into `tmp` (the library will look for its traces in `where`)."""
+    from torch.fx.experimental.proxy_tensor import make_fx
+
+    class _L4C32(l4casadi.L4CasADi):
+        def _trace_adj1_model(self) -> Any:
+            """The adjoint traced with plain autograd and grad mode OFF in the backward
+            (create_graph=False): each op then records its own backward kernel (for the LSTM one
+            aten::mkldnn_rnn_layer_backward per layer), where l4casadi's torch.func.vjp keeps
+            grad mode on and functionalises, which unrolls the fused LSTM (or fails: oneDNN's
+            workspace is lost under functorch's wrappers)."""
+            m = self.model
+
+            def adj1(p, seed):  # type: ignore[no-untyped-def]  (no annotations: FX copies them into the trace)
+                with torch.enable_grad():
+                    p = p.detach().requires_grad_(True)
+                    return torch.autograd.grad(m(p), p, seed)[0]
+
+            return make_fx(adj1)(torch.zeros(self._input_shape), torch.zeros(self._output_shape))
+
+        def model_compile(self, model: Any, file_path: str, dummy_inp: Any) -> bool:
+            """The adjoint's TorchScript wrapped in grad mode ON (_GradOn): libl4casadi calls
+            it with grad mode off, and oneDNN's LSTM keeps the workspace its backward needs
+            only in grad mode (it returns none otherwise, whatever `train` says)."""
+            ok = super().model_compile(model, file_path, dummy_inp)
+            if ok and Path(file_path).name.startswith("adj1_"):
+                torch.jit.script(_GradOn(torch.jit.load(file_path))).save(file_path)
+            return ok
+
+    if not hasattr(l4casadi.L4CasADi, "_trace_adj1_model"):
+        raise CasadiBuildError(f"l4casadi {getattr(l4casadi, '__version__', '?')} has no adjoint trace hook "
+                               "(_trace_adj1_model); l4casadi32 was written for l4casadi 2.0")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # torch.jit deprecations, l4casadi's notes on traces not asked for
+            with torch.no_grad():  # the value's trace: inference kernels (no oneDNN workspace)
+                l4c = _L4C32(model, name=name, build_dir=str(tmp), model_search_path=str(where.absolute()),
+                             generate_jac=False, generate_adj1=True, generate_jac_adj1=False, generate_jac_jac=False)
+                l4c.generate(cs.MX.sym("inp", 1, n_in))
+    except Exception as exc:
+        raise CasadiBuildError(f"tracing failed: {_one_line(exc)}") from None
+    missing = [f for f in (f"{name}.pt", f"adj1_{name}.pt") if not (tmp / f).exists()]
+    if missing:
+        raise CasadiBuildError(f"l4casadi did not produce {missing} (the trace failed)")
+    _check_traces(model, tmp / f"{name}.pt", tmp / f"adj1_{name}.pt", n_in)
+    try:
+        with open(os.devnull, "w") as null, _redirect_fd(2, null):  # gcc's own messages: the exception says it
+            l4c.compile()
+    except Exception:
+        raise CasadiBuildError(f"compiling lib{name}.so failed (gcc with libl4casadi)") from None
+    if not (tmp / f"lib{name}.so").exists():
+        raise CasadiBuildError(f"l4casadi did not produce lib{name}.so")
+
+
+class _GradOn(nn.Module):
+    """A traced adjoint (p, seed) -> gradient run with grad mode on (see _L4C32.model_compile)."""
+
+    def __init__(self, inner: Any) -> None:
+        super().__init__()
+        self.inner = inner
+
+    def forward(self, p: torch.Tensor, seed: torch.Tensor) -> torch.Tensor:
+        prev = torch.is_grad_enabled()  # TorchScript has no `with torch.enable_grad()`
+        torch.set_grad_enabled(True)
+        out = self.inner(p, seed)
+        torch.set_grad_enabled(prev)
+        return out
+
+
+def _check_traces(model: nn.Module, value_pt: Path, adj1_pt: Path, n_in: int) -> None:
+    """Load the traces as libl4casadi does (torch.jit.freeze, optimize_for_inference) and compare
+    value and adjoint with eager torch at a random point: a trace that breaks there (as the
+    two-Linear LSTM cell did, shared/notes/dependencies.md) fails the build, not the solve."""
+    z = torch.randn(1, n_in, generator=torch.Generator().manual_seed(0))
+    seed = torch.tensor([[1.0, 0.5]])
+    zg = z.clone().requires_grad_(True)
+    want = model(zg)
+    want_g = torch.autograd.grad(want, zg, seed)[0]
+    want = want.detach()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            value = torch.jit.optimize_for_inference(torch.jit.freeze(torch.jit.load(str(value_pt)).eval()))
+            adj1 = torch.jit.optimize_for_inference(torch.jit.freeze(torch.jit.load(str(adj1_pt)).eval()))
+            with torch.inference_mode():  # as libl4casadi calls them
+                got, got_g = value(z), adj1(z, seed)
+    except Exception as exc:
+        raise CasadiBuildError(f"the frozen trace does not run: {_one_line(exc)}") from None
+    for what, a, b in (("value", got, want), ("gradient", got_g, want_g)):
+        err = float((a - b).abs().max() / b.abs().max().clamp_min(1e-12))
+        if not err <= 1e-4:
+            raise CasadiBuildError(f"the traced {what} differs from torch's by {err:.1e} (relative)")
+
+
+class _redirect_fd:
+    """Point file descriptor `fd` at `target` for the block (os.system's children write there)."""
+
+    def __init__(self, fd: int, target: Any) -> None:
+        self.fd, self.target = fd, target
+
+    def __enter__(self) -> None:
+        self.saved = os.dup(self.fd)
+        os.dup2(self.target.fileno(), self.fd)
+
+    def __exit__(self, *exc: Any) -> None:
+        os.dup2(self.saved, self.fd)
+        os.close(self.saved)
+
+
 #: l4casadi's C++ side hands the model FLOAT32 inputs (measured: a relative input change of
 #: 1e-9 leaves the output unchanged), which makes the function piecewise constant at ~6e-8
 #: relative resolution and stalls Ipopt near an optimum. So each normalised input z is sent
@@ -283,12 +502,16 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
 _SPLIT_BITS = 12
 
 
-def _split_normalized(judge: Judge, x: cs.MX, e: cs.MX) -> cs.MX:
-    """[z_hi; z_lo] of the normalised inputs [x; e] (column), computed by CasADi in float64."""
+def _normalized(judge: Judge, x: cs.MX, e: cs.MX) -> cs.MX:
+    """The normalised inputs [x; e] (column), computed by CasADi in float64."""
     n1 = judge.config.horizon + 1
     mean = np.concatenate([np.tile(judge.x_mean.double().numpy(), n1), judge.e_mean.double().numpy()])
     std = np.concatenate([np.tile(judge.x_std.double().numpy(), n1), judge.e_std.double().numpy()])
-    z = (cs.vertcat(x, e) - cs.DM(mean)) / cs.DM(std)
+    return (cs.vertcat(x, e) - cs.DM(mean)) / cs.DM(std)
+
+
+def _split(z: cs.MX) -> cs.MX:
+    """[z_hi; z_lo] of the normalised inputs z (see _SPLIT_BITS)."""
     z_hi = cs.floor(z * 2.0**_SPLIT_BITS) / 2.0**_SPLIT_BITS
     return cs.vertcat(z_hi, z - z_hi)
 
@@ -298,18 +521,23 @@ class _SplitInput(nn.Module):
 
     def __init__(self, judge: Judge) -> None:
         super().__init__()
-        self.model = judge.config.spec.flat_module(judge).double()
-        for module in self.model.modules():  # normalisation happens in CasADi (_split_normalized)
-            for name, buf in module.named_buffers(recurse=False):
-                if name in ("x_mean", "e_mean"):
-                    buf.zero_()
-                elif name in ("x_std", "e_std"):
-                    buf.fill_(1.0)
+        self.model = _identity_normalization(judge.config.spec.flat_module(judge).double())
 
     def forward(self, inp: torch.Tensor) -> torch.Tensor:
         n = inp.shape[1] // 2
         inp = inp.to(torch.float64)
         return self.model(inp[:, :n] + inp[:, n:])
+
+
+def _identity_normalization(model: nn.Module) -> nn.Module:
+    """`model` with its normalisation buffers set to mean 0, std 1: CasADi normalises (_normalized)."""
+    for module in model.modules():
+        for name, buf in module.named_buffers(recurse=False):
+            if name in ("x_mean", "e_mean"):
+                buf.zero_()
+            elif name in ("x_std", "e_std"):
+                buf.fill_(1.0)
+    return model
 
 
 def _cache_key(judge: Judge, backend: str, versions: str) -> str:

@@ -55,6 +55,13 @@ class Arch:
         not trace (the LSTM's mkldnn kernel)."""
         return FlatJudge(judge)
 
+    def flat_module32(self, judge: nn.Module) -> nn.Module:
+        """The same flat row -> (1, 2) [logit, probability] in FLOAT32, for the l4casadi32 backend
+        (only its value and its reverse-mode derivative are traced, with grad mode off in the
+        backward). The default is flat_module in float32; override it where a faster form
+        traces (the LSTM's fused oneDNN layer)."""
+        return self.flat_module(judge).float()
+
     def native_logit(self, judge: nn.Module, u: Any) -> Any:
         """The logit (1 x 1 casadi.MX) from the normalised features u ((C+E) x (N+1) MX, one
         column per step). Only where casadi_graph is True."""

@@ -1,6 +1,7 @@
 """The paper's network (Fig. 2, Table 2): an LSTM over the steps, its last hidden state through
-feed-forward layers to one logit. nn.LSTM for training; for l4casadi the same weights in an
-unrolled one-Linear cell; for the native and compiled CasADi backends an MX graph."""
+feed-forward layers to one logit. nn.LSTM for training; for l4casadi in float64 the same weights
+in an unrolled one-Linear cell; for l4casadi in float32 oneDNN's fused LSTM layer op, called
+directly (FusedLSTMJudge32); for the native and compiled CasADi backends an MX graph."""
 
 from __future__ import annotations
 
@@ -54,6 +55,9 @@ class LSTM(Arch):
 
     def flat_module(self, judge: nn.Module) -> nn.Module:
         return UnrolledJudge(judge)
+
+    def flat_module32(self, judge: nn.Module) -> nn.Module:
+        return FusedLSTMJudge32(judge)
 
     def native_logit(self, judge: nn.Module, u: Any) -> Any:
         """The input projection of each LSTM layer is one matrix product over all steps; only
@@ -157,4 +161,53 @@ class UnrolledJudge(nn.Module):
                 hs[j], cs[j] = cell(u, hs[j], cs[j])
                 u = hs[j]
         logit = self.head(u)
+        return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
+
+
+#: nn.LSTM's mode number for aten::mkldnn_rnn_layer (RNN_RELU 0, RNN_TANH 1, LSTM 2, GRU 3)
+_MKLDNN_LSTM = 2
+
+
+class FusedLSTMJudge32(nn.Module):
+    """The judge in float32 with each LSTM layer ONE call of oneDNN's fused kernel
+    (aten::mkldnn_rnn_layer, the kernel nn.LSTM itself runs on CPU in float32), for l4casadi.
+
+    Why not nn.LSTM: under make_fx (how l4casadi traces) aten::lstm does not see plain CPU
+    tensors, so it decomposes into an unrolled cell of ~10 ops per step and layer, which
+    TorchScript then runs one by one (and torch.jit.freeze breaks that decomposition, see
+    shared/notes/dependencies.md). The op called directly is recorded as one node, and its
+    backward, traced with grad mode off (casadi_fn's adjoint trace), as one
+    aten::mkldnn_rnn_layer_backward node. `train` (the workspace the backward needs) is
+    requested only when grad mode is on, i.e. in the adjoint trace, not in the value's.
+
+    Input: a (B, (N+1)*C + E) row [x_0, ..., x_N (row-major), e] of raw values normalised
+    with the buffers x_mean, x_std, e_mean, e_std (casadi_fn sets them to 0 and 1 and
+    normalises in CasADi); output (B, 2) [logit, probability].
+    """
+
+    def __init__(self, judge: nn.Module) -> None:
+        super().__init__()
+        cfg = judge.config
+        self.n_steps, self.n_ch, self.n_env = cfg.horizon + 1, cfg.n_channels, cfg.n_env
+        for name in ("x_mean", "x_std", "e_mean", "e_std"):
+            self.register_buffer(name, getattr(judge, name).detach().float().clone())
+        lstm = judge.lstm
+        self.hidden, self.layers = lstm.hidden_size, lstm.num_layers
+        for k in range(lstm.num_layers):  # buffers: constants of the trace, no gradient wanted
+            for w in ("weight_ih", "weight_hh", "bias_ih", "bias_hh"):
+                self.register_buffer(f"{w}_l{k}", getattr(lstm, f"{w}_l{k}").detach().float().clone())
+        self.head = copy.deepcopy(judge.head).float()
+
+    def forward(self, inp: torch.Tensor) -> torch.Tensor:
+        n, T, B = self.n_steps * self.n_ch, self.n_steps, inp.shape[0]
+        x = (inp[:, :n].reshape(B, T, self.n_ch) - self.x_mean) / self.x_std
+        e = ((inp[:, n:n + self.n_env] - self.e_mean) / self.e_std).unsqueeze(1).expand(B, T, self.n_env)
+        u = torch.cat([x, e], dim=-1).transpose(0, 1).contiguous()  # time-major (T, B, C + E)
+        h0 = torch.zeros(B, self.hidden, dtype=u.dtype)
+        train = torch.is_grad_enabled()
+        for k in range(self.layers):
+            w = [getattr(self, f"{name}_l{k}") for name in ("weight_ih", "weight_hh", "bias_ih", "bias_hh")]
+            u = torch.ops.aten.mkldnn_rnn_layer(u, *w, h0, h0, False, [], _MKLDNN_LSTM, self.hidden, 1, True,
+                                                False, False, train)[0]
+        logit = self.head(u[-1])
         return torch.cat([logit, torch.sigmoid(logit)], dim=-1)

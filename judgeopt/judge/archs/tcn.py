@@ -5,11 +5,13 @@ feed-forward layers to one logit.
 
 Why this one beside the LSTM: no recurrence, so the l4casadi trace is a handful of
 convolutions instead of N + 1 unrolled cells (cheap to build and to call), and every step is
-computed at once. It offers no CasADi MX graph: l4casadi and the torch callbacks only.
+computed at once. It offers no CasADi MX graph: l4casadi and the torch callbacks only. For
+l4casadi in float32 the convolutions are written as matrix products (MatmulTCN32).
 """
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass
 from typing import Any
 
@@ -63,3 +65,48 @@ class TCN(Arch):
         seen = 1 + (net.kernel - 1) * (2 ** net.levels - 1)
         return (f"TCN {net.levels} x {net.tcn_channels} (kernel {net.kernel}, the last step sees {seen} samples, "
                 f"dropout {net.conv_dropout}), FC {net.fc_layers} x {net.fc_units}, dropout {net.dropout}")
+
+    def flat_module32(self, judge: nn.Module) -> nn.Module:
+        return MatmulTCN32(judge)
+
+
+class MatmulTCN32(nn.Module):
+    """The TCN judge in float32 with each causal convolution as ONE matrix product over all steps:
+    the kernel's taps (h shifted by 0, d, 2d, ... steps, zero-padded on the left) side by side,
+    (T, K * channels) @ (K * channels, channels). For l4casadi32 (its value and adjoint traces).
+
+    Why: on one thread a dilated Conv1d of 31 steps costs far more in dispatch and weight
+    reordering than in arithmetic; measured on judge_default (one thread, eager float32) value
+    0.70 ms against 1.64 ms for the convolutions, value + gradient 2.4 against 4.0 ms.
+    Same input and output as FlatJudge: a (B, (N+1)*C + E) row of raw values normalised with the
+    buffers x_mean, x_std, e_mean, e_std -> (B, 2) [logit, probability].
+    """
+
+    def __init__(self, judge: nn.Module) -> None:
+        super().__init__()
+        cfg = judge.config
+        self.n_steps, self.n_ch, self.n_env = cfg.horizon + 1, cfg.n_channels, cfg.n_env
+        for name in ("x_mean", "x_std", "e_mean", "e_std"):
+            self.register_buffer(name, getattr(judge, name).detach().float().clone())
+        self.register_buffer("lift_w", judge.lift.weight.detach().float()[:, :, 0].T.contiguous())  # (C + E, ch)
+        self.register_buffer("lift_b", judge.lift.bias.detach().float().clone())
+        self.taps: list[tuple[int, int]] = []  # (kernel, dilation) per level
+        for i, conv in enumerate(judge.convs):
+            # weight (out, in, K) -> (K * in, out): tap j multiplies h[t - (K - 1 - j) d]
+            w = conv.weight.detach().float().permute(2, 1, 0).reshape(-1, conv.out_channels)
+            self.register_buffer(f"conv_w{i}", w.contiguous())
+            self.register_buffer(f"conv_b{i}", conv.bias.detach().float().clone())
+            self.taps.append((conv.kernel_size[0], conv.dilation[0]))
+        self.head = copy.deepcopy(judge.head).float()
+
+    def forward(self, inp: torch.Tensor) -> torch.Tensor:
+        n, T, B = self.n_steps * self.n_ch, self.n_steps, inp.shape[0]
+        x = (inp[:, :n].reshape(B, T, self.n_ch) - self.x_mean) / self.x_std
+        e = ((inp[:, n:n + self.n_env] - self.e_mean) / self.e_std).unsqueeze(1).expand(B, T, self.n_env)
+        h = torch.matmul(torch.cat([x, e], dim=-1), self.lift_w) + self.lift_b  # (B, T, channels)
+        for i, (K, d) in enumerate(self.taps):
+            hp = nn.functional.pad(h, (0, 0, (K - 1) * d, 0))  # causal: zeros before the first step
+            taps = torch.cat([hp[:, j * d:j * d + T] for j in range(K)], dim=-1)
+            h = h + torch.relu(torch.matmul(taps, getattr(self, f"conv_w{i}")) + getattr(self, f"conv_b{i}"))
+        logit = self.head(torch.cat([h[:, -1], h.mean(dim=1)], dim=1))
+        return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
