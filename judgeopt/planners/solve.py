@@ -120,8 +120,9 @@ class Planners:
     def load(cls, problem: Problem, methods: Sequence[str] = ("amortized", "direct"), judge: str | Path | None = None,
              generator: str | Path | None = None, models_dir: str | Path = "models",
              casadi_backend: str | None = None) -> "Planners":
-        """Load the judge, find or load the generator, build the direct solver (l4casadi
-        build cached by model hash: ~15 s the first time, well under 1 s after)."""
+        """Load the judge, find or load the generator, build the direct solver (its judge through
+        l4casadi32 where l4casadi is installed, else the torch32 callback: judge.casadi_fn.choose_backend;
+        the library is built once per judge, a few seconds, and loaded from the cache after)."""
         from judgeopt.judge.casadi_fn import DEFAULT_BACKEND, build_casadi_judge
         from judgeopt.judge.store import check_compatible, load_judge
         from judgeopt.planners.limits import coverage_notes
