@@ -1,5 +1,5 @@
 # Every target sets up .venv first (scripts/setup.sh: idempotent, quick when already done).
-.PHONY: setup run test mutation bench data generators scrape scrape-trust lab-recordings section5
+.PHONY: setup run test docs mutation bench data generators scrape scrape-trust lab-recordings section5
 BIN := .venv/bin
 
 setup:
@@ -11,6 +11,10 @@ run: setup
 
 test: setup
 	$(BIN)/python -m pytest -q
+
+# the docs site (mkdocs.yml: docs/, the API reference from the docstrings, the notebooks as committed) into site/
+docs: setup
+	$(BIN)/mkdocs build --strict --site-dir site
 
 # mutation testing of the code that prints a probability and its verdict ([tool.mutmut] in pyproject.toml;
 # not in CI: about half an hour on 2 cores). Survivors: .venv/bin/mutmut results

@@ -2,13 +2,18 @@
 # Create .venv and install judgeopt with everything it needs, in the one order that works:
 # torch (CPU wheel) first, then the build tools, then l4casadi built against that torch
 # (see shared/notes/dependencies.md), then the package itself, every package at the version CI
-# tests (scripts/constraints.txt; pyproject.toml has the ranges). Idempotent: a second run
-# only checks a stamp and returns.
+# tests (scripts/constraints.txt; pyproject.toml has the ranges), and Debian's chromium for the docs test.
+# Idempotent: a second run only checks for chromium and a stamp, and returns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${JUDGEOPT_VENV:-.venv}
 PY=${PYTHON:-python3.11}
 command -v "$PY" >/dev/null 2>&1 || PY=python3
+# headless Chromium for the docs test (tests/test_docs.py opens the built site); Debian's package
+if ! command -v chromium >/dev/null 2>&1 && command -v apt-get >/dev/null 2>&1; then
+  SUDO=; [ "$(id -u)" = 0 ] || SUDO=sudo
+  $SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $SUDO apt-get install -y -qq --no-install-recommends chromium >/dev/null
+fi
 stamp="$VENV/.judgeopt-setup-$(cat pyproject.toml scripts/setup.sh scripts/constraints.txt | sha1sum | cut -c1-12)"
 if [ -f "$stamp" ]; then exit 0; fi
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
@@ -19,6 +24,6 @@ pip install -q -c scripts/constraints.txt casadi scikit-build cmake ninja setupt
 if ! "$VENV/bin/python" -c "import l4casadi" 2>/dev/null; then
   CMAKE_POLICY_VERSION_MINIMUM=3.5 pip install -q --no-build-isolation l4casadi==2.0.0
 fi
-pip install -q --no-build-isolation -c scripts/constraints.txt -e ".[test]"
+pip install -q --no-build-isolation -c scripts/constraints.txt -e ".[test,docs]"
 rm -f "$VENV"/.judgeopt-setup-*
 touch "$stamp"
