@@ -114,6 +114,21 @@ def _folder(text: str) -> str:
     return text
 
 
+#: the image formats judgeopt's figures are written in (matplotlib's, by the file's suffix)
+FIGURE_SUFFIXES = (".png", ".pdf", ".svg", ".jpg", ".jpeg")
+
+
+def figure_path(text: str) -> str:
+    """An image file to write, checked before any work is done: a known suffix, not a folder."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder; give an image file, e.g. {path / 'plan.png'}")
+    if path.suffix.lower() not in FIGURE_SUFFIXES:
+        raise argparse.ArgumentTypeError(f"{text}: the suffix picks the format; use one of "
+                                         f"{', '.join(FIGURE_SUFFIXES)}")
+    return text
+
+
 def out_option(kind: str, what: str, required: bool = False, default: str | None = None) -> argparse.ArgumentParser:
     """--out, named for what it is: FILE, DIR (a folder: an existing file is refused) or STEM (a
     model path without suffix)."""

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -11,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, out_option,
+from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path, out_option,
                                  positive, seed_option, threads_option, value_range)
 from judgeopt.files import refuse_overwrite
 from judgeopt.planners.result import LEGEND, OUTSIDE
@@ -29,13 +30,20 @@ def _number_or_name(text: str) -> float | str:
         return text  # "free" or an environment variable; the problem checks which
 
 
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(text)
+    return value
+
+
 def _per_axis(convert):
     """One value for every axis, or a comma-separated value per axis."""
     def parse(text: str):
         try:
             values = [convert(v) for v in text.split(",")]
         except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number or comma-separated numbers, got {text!r}") from None
+            raise argparse.ArgumentTypeError(f"expected a finite number or comma-separated numbers, got {text!r}") from None
         return values[0] if len(values) == 1 else values
     return parse
 
@@ -44,7 +52,7 @@ def _parser_type(name: str):
     if name == "q_end":
         return _per_axis(_number_or_name)
     if name in AXIS_FIELDS + FORCE_FIELDS:
-        return _per_axis(float)
+        return _per_axis(_finite)
     if name in SECTIONS["models"] or str(FIELD_TYPES[name]) == "str":
         return str
     return int if str(FIELD_TYPES[name]) == "int" else float
@@ -473,7 +481,8 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--export", metavar="FILE", help="write the plan for a robot (one per method: NAME_METHOD.EXT): "
                    ".csv with the importer's columns, or .mcap with ROS 2 messages along the problem's [frame] "
                    "(pip install 'judgeopt[ros]'); as `judgeopt export` does from a --save-json file")
-    s.add_argument("--plot", metavar="FILE", help="write q, q̇ and f against time with the allowed region (PNG)")
+    s.add_argument("--plot", metavar="FILE", type=figure_path,
+                   help="write q, q̇ and f against time with the allowed region (PNG, PDF or SVG by suffix)")
     s.add_argument("--generator", help="generator model (default: one in --models trained for these limits)")
     s.add_argument("--models", default="models", metavar="DIR",
                    help="folder searched for generators (models/: $JUDGEOPT_MODELS, then the shipped models)")

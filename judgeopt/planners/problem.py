@@ -282,6 +282,9 @@ class Problem:
         for lo, hi in (("q_min", "q_max"), ("qdot_min", "qdot_max"), ("f_min", "f_max")):
             if not np.all(self._vec(lo, task) < self._vec(hi, task)):
                 raise ProblemError(f"{lo} = {getattr(self, lo)} must be below {hi} = {getattr(self, hi)}{where}")
+        if np.any(self._vec("f_min", task) < 0):
+            raise ProblemError(f"f_min = {self.f_min}{where} must not be negative: a contact force presses, it "
+                               "cannot pull (0 lets the tool lift off)")
         for name in ("P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
             if getattr(self, name) < 0:
                 raise ProblemError(f"weight {name} = {getattr(self, name)}{where} must not be negative")
@@ -486,7 +489,12 @@ class Problem:
                 raise ProblemError(f"unknown problem field {k!r}; fields: "
                                    f"{sorted(fields - {'environment', 'world', 'source'})}, environment: {sorted(env)}"
                                    f"{f', world: {sorted(set(task_vars) - set(env))}' if set(task_vars) - set(env) else ''}")
-        return dataclasses.replace(self, environment=env, world=world, **changes)
+        try:
+            return dataclasses.replace(self, environment=env, world=world, **changes)
+        except ProblemError as exc:  # the file was valid: the change is what is wrong, not the file
+            if not self.source:
+                raise
+            raise ProblemError(str(exc).replace(f" in {self.source}", f" (changed from {self.source})")) from None
 
     def limits_key(self) -> dict[str, Any]:
         """Everything a trained generator depends on except the environment values."""
@@ -544,6 +552,8 @@ def _env_value(name: str, v: Any, source: str) -> EnvValue:
 def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
     if path in seen:
         raise ProblemError(f"{path}: `base` files form a cycle ({' -> '.join(map(str, seen + (path,)))})")
+    if path.is_dir():
+        raise ProblemError(f"{path} is a folder; give a problem file (.toml), e.g. problems/paper_sim.toml")
     if not path.exists():
         raise ProblemError(f"{path}: no such problem file (shipped ones: problems/paper_sim.toml, problems/scrape.toml, "
                            "... in judgeopt/tasks/*/problems/)")
