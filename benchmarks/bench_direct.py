@@ -18,7 +18,7 @@ is the shipped default. A variant is `key=value,...` over:
 --threads N ...: torch threads, each count a run of its own in this process.
 --fresh K: also K `judgeopt solve --json --method direct --no-simulate` runs, each a fresh
 process (idle and, with --busy, busy), warm-started and cold: the first solve in a process
-against the warm loop's median above.
+against the warm loop's median above; --before DIR: the same on an earlier commit's worktree.
 """
 
 from __future__ import annotations
@@ -162,9 +162,10 @@ def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: boo
     return rows
 
 
-def fresh_runs(problem_path: str, k: int, seed: int, load: Load) -> list[dict]:
+def fresh_runs(problem_path: str, k: int, seed: int, load: Load, code: str | None = None) -> list[dict]:
     """The first direct solve of K fresh `judgeopt solve` processes, warm-started and cold,
-    idle and busy: solve_time_s from --json, and the process's wall time."""
+    idle and busy: solve_time_s from --json, and the process's wall time. `code`: run the
+    judgeopt in that folder instead (a worktree of an earlier commit: before and after in one run)."""
     problem = load_problem(resolve(problem_path))
     envs = [problem.env_dict(e) for e in problem.sample_env(np.random.default_rng(seed), k)]
     exe = [sys.executable, "-m", "judgeopt.cli", "solve", "--json", "--method", "direct", "--no-simulate",
@@ -175,8 +176,8 @@ def fresh_runs(problem_path: str, k: int, seed: int, load: Load) -> list[dict]:
         for env in envs:
             cmd = exe + [f"--{name.replace('_', '-')}={value!r}" for name, value in env.items()]
             cmd += ["--warm-start", "none"] if start == "cold" else []
-            pairs.append(timed(load, lambda: _cli_time(cmd)))
-        row = {"problem": problem.name, "variant": "fresh process", "start": start,
+            pairs.append(timed(load, lambda: _cli_time(cmd, code)))
+        row = {"problem": problem.name, "variant": "fresh process" + (f" ({code})" if code else ""), "start": start,
                "time": [a[0] for a, _ in pairs], "wall": [a[1] for a, _ in pairs], "success": [None]}
         if load.procs:
             row["busy_time"] = [b[0] for _, b in pairs]
@@ -185,9 +186,10 @@ def fresh_runs(problem_path: str, k: int, seed: int, load: Load) -> list[dict]:
     return rows
 
 
-def _cli_time(cmd: list[str]) -> tuple[float, float]:
+def _cli_time(cmd: list[str], code: str | None = None) -> tuple[float, float]:
+    env = {**os.environ, "PYTHONPATH": code} if code else None
     t0 = time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True)
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=code)
     wall = time.perf_counter() - t0
     try:
         out = json.loads(res.stdout)
@@ -233,6 +235,8 @@ def main() -> None:
     ap.add_argument("--threads", type=int, nargs="+", default=[1], help="torch threads, one run per count")
     ap.add_argument("--busy", action="store_true", help="time every solve idle and with every core busy, in turn")
     ap.add_argument("--fresh", type=int, default=0, metavar="K", help="also K fresh `judgeopt solve` processes")
+    ap.add_argument("--before", metavar="DIR", help="with --fresh: the same fresh runs on the judgeopt in DIR too "
+                    "(e.g. `git worktree add /tmp/before REV`)")
     ap.add_argument("--json", help="also write every row here")
     args = ap.parse_args()
     load = Load(args.busy)
@@ -246,6 +250,8 @@ def main() -> None:
                     rows.append({**r, "threads": threads})
         for path in args.problems if args.fresh else ():
             rows += fresh_runs(path, args.fresh, args.seed, load)
+            if args.before:
+                rows += fresh_runs(path, args.fresh, args.seed, load, str(Path(args.before).resolve()))
     finally:
         load.close()
     print(f"\n{args.n} environments per problem (seed {args.seed}), one process, torch threads {args.threads}"
