@@ -62,12 +62,14 @@ def solve(problem: Any = "paper_sim", methods: Sequence[str] = ("amortized", "di
             sim.close()
 
 
-def load_judge(path: str | Path = "models/judge_default") -> Any:
-    """A trained judge (judgeopt.judge.store.load_judge): `.predict_proba(trajectories, envs)`."""
+def load_judge(path: str | Path | None = None) -> Any:
+    """A trained judge (judgeopt.judge.store.load_judge): `.predict_proba(trajectories, envs)`;
+    by default the one `solve` plans with (the default task's default judge; `judgeopt models`)."""
     from judgeopt.files import resolve
     from judgeopt.judge.store import load_judge as load
+    from judgeopt.tasks import DEFAULT_TASK, get_task
 
-    return load(resolve(path, (".json",)))[0]
+    return load(resolve(path or get_task(DEFAULT_TASK).default_judge, (".json",)))[0]
 
 
 def get_task(name: str = "scoop") -> Any:

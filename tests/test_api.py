@@ -52,3 +52,19 @@ def test_the_readme_first_python_example_runs_on_the_top_level_api_alone(capsys)
     assert imports == ["import judgeopt"]
     exec(compile(code, "README.md", "exec"), {})
     assert capsys.readouterr().out.splitlines()[0] in ("likely", "unlikely", "infeasible")
+
+
+def test_the_default_judge_is_the_one_solve_plans_with_and_models_marks_it(capsys):
+    import json
+
+    from judgeopt.cli.main import main
+    from judgeopt.judge.casadi_fn import model_hash
+
+    planners = judgeopt.load_planners("paper_sim", methods=("amortized",))
+    assert model_hash(judgeopt.load_judge()) == model_hash(planners.judge)
+    assert main(["models", "--task", "scoop", "--json"]) == 0
+    entries = json.loads(capsys.readouterr().out)["scoop"]
+    marked = [e["name"] for e in entries if "judge of problems/paper_sim.toml" in e["defaults"]]
+    assert marked == [str(planners.judge_path.relative_to(planners.judge_path.parents[1]).with_suffix(""))]
+    gen = [e for e in entries if "generator of problems/paper_sim.toml" in e["defaults"]]
+    assert len(gen) == 1 and gen[0]["trained_against"] == marked[0]  # the pair solve uses, named as a pair

@@ -184,8 +184,10 @@ def build_parser() -> argparse.ArgumentParser:
     k.set_defaults(func=cmd_tasks)
 
     from judgeopt.cli.inspect import add_inspect_command
+    from judgeopt.cli.models import add_models_command
 
     add_inspect_command(sub)
+    add_models_command(sub)
 
     r = sub.add_parser("render", help="replay demonstrations in PyBullet and save GIFs",
                        description="Replays demonstrations of a dataset with the headless renderer.",
