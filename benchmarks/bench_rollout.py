@@ -63,20 +63,24 @@ def replay(sim: Simulator, plan, torques: list[list[float]]) -> None:
 
 
 def recorded_torques(sim: Simulator, plans: list) -> list[list[list[float]]]:
-    """The torques of each plan's closed-loop rollout, step by step (a second, untimed run)."""
+    """The torques of each plan's closed-loop rollout, step by step (a second, untimed run), as
+    the arm driver hands them to PyBullet (whichever control step computed them)."""
+    from judgeopt.sim import arm
+
     torques: list[list[list[float]]] = []
-    original = sim.controller.step
+    original = arm._set_joint_motors
 
-    def recording(q, ft, cmd):
-        tau = original(q, ft, cmd)
-        torques[-1].append(tau.tolist())
-        return tau
+    def recording(*args, forces, **kwargs):
+        torques[-1].append(list(forces))
+        return original(*args, forces=forces, **kwargs)
 
-    sim.controller.step = recording
-    for p in plans:
-        torques.append([])
-        sim.run(p, 0.19, 2.0)
-    sim.controller.step = original
+    arm._set_joint_motors = recording
+    try:
+        for p in plans:
+            torques.append([])
+            sim.run(p, 0.19, 2.0)
+    finally:
+        arm._set_joint_motors = original
     return torques
 
 

@@ -125,6 +125,20 @@ def save_figure(fig, path: str | Path, dpi: int = 120) -> Path:
     return path
 
 
+def publish_dir(tmp: str | Path, where: str | Path, marker: str = "complete.json") -> None:
+    """Move a finished build folder `tmp` into place at `where` by a rename, so a reader sees a
+    whole build or none; if another process won the race (its `marker` is there), keep its copy."""
+    import shutil
+
+    tmp, where = Path(tmp), Path(where)
+    try:
+        os.replace(tmp, where)
+    except OSError:
+        if not (where / marker).exists():
+            shutil.rmtree(where, ignore_errors=True)
+            os.replace(tmp, where)
+
+
 def sha256_file(path: str | Path) -> str:
     h = hashlib.sha256()
     with open(path, "rb") as f:

@@ -12,7 +12,8 @@ import numpy as np
 import pinocchio as pin
 
 from judgeopt.sim.quiet import c_stdout_to_stderr, pb
-from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand, solve_ik
+from judgeopt.sim.compiled import make_controller
+from judgeopt.sim.controller import ControllerConfig, TaskCommand, solve_ik
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 
 ARM_JOINTS = (
@@ -78,13 +79,17 @@ class ArmDriver:
 
     def __init__(self, body: ArmBody, spatula: SpatulaGeometry, config: ControllerConfig | None = None):
         self.body = body
-        self.controller = HybridController(body.urdf_path, payload_weight=(spatula.handle_mass + spatula.blade_mass)
+        self.controller = make_controller(body.urdf_path, payload_weight=(spatula.handle_mass + spatula.blade_mass)
                                            * 9.81, config=config)
         # PyBullet reports the sensor joint's reaction in its child link's inertial frame,
         # which it rotates to the principal axes of the URDF's inertia (the handle is tilted):
         # rotate readings back to the link frame the controller expects
         orn = pb.getDynamicsInfo(body.robot, body.ft_joint, physicsClientId=body.client)[4]
         self.sensor_rotation = np.array(pb.getMatrixFromQuaternion(orn)).reshape(3, 3)
+        # the compiled controller's 1 kHz path takes the joint states as PyBullet gives them
+        self._step_states = getattr(self.controller, "step_joint_states", None)
+        if self._step_states is not None:
+            self.controller.sensor_rotation = self.sensor_rotation
         self._sensor_valid = False
         self._read_joints = [*body.arm_joints, body.ft_joint]  # read() takes the sensor's joint last
         #: the force sensor's errors: None (exact), or a callable from the true force in the sensor
@@ -117,10 +122,16 @@ class ArmDriver:
         return q, force if self.sensor_model is None else self.sensor_model(force)
 
     def step(self, cmd: TaskCommand) -> None:
-        """Read the sensors, compute the torques, step the physics."""
-        q, ft = self.read()
-        tau = self.controller.step(q, ft, cmd)
+        """Read the sensors, compute the torques, step the physics. With the compiled controller and
+        an exact sensor, the joint states go to it as PyBullet gives them (one call, no arrays)."""
         b = self.body
-        # a list converts to PyBullet's doubles in half the time an array of 6 takes (same values)
-        _set_joint_motors(b.robot, b.arm_joints, _TORQUE_CONTROL, forces=tau.tolist(), physicsClientId=b.client)
+        if self._step_states is not None and self.sensor_model is None:
+            states = _get_joint_states(b.robot, self._read_joints, physicsClientId=b.client)
+            tau = self._step_states(states, self._sensor_valid, cmd)
+            self._sensor_valid = True
+        else:
+            q, ft = self.read()
+            # a list converts to PyBullet's doubles in half the time an array of 6 takes (same values)
+            tau = self.controller.step(q, ft, cmd).tolist()
+        _set_joint_motors(b.robot, b.arm_joints, _TORQUE_CONTROL, forces=tau, physicsClientId=b.client)
         _step_simulation(physicsClientId=b.client)

@@ -46,6 +46,9 @@ class ControllerConfig:
     cutoff_hz: float = 10.0
     dt: float = 1e-3
     torque_limit: tuple[float, ...] = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)  # UR5 joint limits
+    #: "compiled": the step in C, one native call (judgeopt/sim/compiled.py; the Python step where it
+    #: cannot be built); "python": HybridController.step, the reference
+    step: str = "compiled"
 
 
 @dataclass
@@ -87,6 +90,7 @@ class HybridController:
         self.f_est = np.zeros(3)
         self.position = np.zeros(3)
         self.velocity = np.zeros(6)
+        self.rotation = IDENTITY  # the TCP's, at the last step
 
     def step(self, q: np.ndarray, sensor_force: np.ndarray | None, cmd: TaskCommand) -> np.ndarray:
         """One control step: filter the measurements, then joint torques for `cmd`.
@@ -109,6 +113,7 @@ class HybridController:
         oMf = _frame_placement(model, data, tcp)
         J = _frame_jacobian(model, data, tcp, _LOCAL_WORLD_ALIGNED)
         R = oMf.rotation
+        self.rotation = R
         if sensor_force is not None:
             contact = -(R @ sensor_force)
             contact[2] += self.payload_weight

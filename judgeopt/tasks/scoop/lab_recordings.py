@@ -153,7 +153,7 @@ def simulate(sim: Any, demo: LabDemo, cfg: LabConfig) -> tuple[Any, Trace, Any]:
     sensed: list[float] = []
 
     def tap(force: np.ndarray) -> np.ndarray:  # the controller sees the reading unchanged
-        rotation = ctl.data.oMf[ctl.tcp].rotation  # the last step's (1 ms old): the contact force in the world
+        rotation = ctl.rotation  # the last step's (1 ms old): the contact force in the world
         sensed.append(ctl.payload_weight - float(rotation[2] @ force))
         y.append(float(ctl.position[1]))
         return force
