@@ -110,7 +110,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         picks = list(args.index)
     if not picks:
         raise CLIError(f"{args.data} has no demonstrations of the requested kind")
-    sim = task.simulator()
+    sim = task.simulator(render=True)
     for i in picks:
         if not 0 <= i < ds.n:
             raise CLIError(f"--index {i} is out of range: {args.data} holds {ds.n} demonstrations")

@@ -58,6 +58,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from judgeopt.files import publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
 
@@ -282,7 +283,7 @@ def _compiled_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
         if res.returncode != 0:
             raise CasadiBuildError(f"gcc failed building {name}: {res.stderr[-2000:]}")
         (tmp / "complete.json").write_text(json.dumps({"backend": "compiled", "casadi": cs.__version__}))
-        _publish(tmp, where)
+        publish_dir(tmp, where)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return cs.external(name, str(lib)), False, where
@@ -323,7 +324,7 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
             raise CasadiBuildError(f"l4casadi did not produce {missing} (derivative traces failed)")
         (tmp / "complete.json").write_text(json.dumps({"backend": "l4casadi", "l4casadi": version,
                                                        "torch": torch.__version__}))
-        _publish(tmp, where)
+        publish_dir(tmp, where)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return cs.external(name, str(lib)), False, where
@@ -367,7 +368,7 @@ def _l4casadi32_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, P
             (tmp / "complete.json").write_text(json.dumps({"backend": "l4casadi32", "l4casadi": version,
                                                            "torch": torch.__version__, "traces": _L4C32_TRACES,
                                                            "module": module}))
-            _publish(tmp, where)
+            publish_dir(tmp, where)
         finally:
             shutil.rmtree(tmp, ignore_errors=True)
         hit = False
@@ -547,16 +548,6 @@ def _cache_key(judge: Judge, backend: str, versions: str) -> str:
 def _mkdir(p: Path) -> Path:
     p.mkdir(parents=True, exist_ok=True)
     return p
-
-
-def _publish(tmp: Path, where: Path) -> None:
-    """Move a finished build into place; if another process won the race, keep its copy."""
-    try:
-        os.replace(tmp, where)
-    except OSError:
-        if not (where / "complete.json").exists():
-            shutil.rmtree(where, ignore_errors=True)
-            os.replace(tmp, where)
 
 
 # -- casadi.Callback around torch autograd --------------------------------------------------

@@ -54,12 +54,14 @@ class ArmBody:
 
 
 def load_arm(client: int, spatula: SpatulaGeometry, wrist_inertia: str = "universal_robots",
-             inertia_from_file: bool = True) -> ArmBody:
+             inertia_from_file: bool = True, visual_shapes: bool = True) -> ArmBody:
     """Load the arm; nothing of it collides until a task gives its spatula links collision layers.
     `inertia_from_file`: PyBullet integrates the URDF's inertias (the ones the controller's
     model reads; docs/physics.md), not ones derived from the collision shapes."""
     urdf_path = robot_urdf(spatula, wrist_inertia=wrist_inertia)
     flags = pb.URDF_USE_INERTIA_FROM_FILE if inertia_from_file else 0
+    if not visual_shapes:  # only a camera sees them; reading the arm's meshes is most of a scene's build (0.45 s)
+        flags |= pb.URDF_IGNORE_VISUAL_SHAPES
     with c_stdout_to_stderr():  # URDF warnings about the massless root link
         robot = pb.loadURDF(str(urdf_path), useFixedBase=True, flags=flags, physicsClientId=client)
     n = pb.getNumJoints(robot, physicsClientId=client)

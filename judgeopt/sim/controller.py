@@ -20,7 +20,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
-from scipy.linalg.lapack import dgesv  # a 6x6 solve without numpy.linalg's per-call checks
 
 # The control step's callees bound once: a module attribute lookup per call adds up at 1 kHz.
 _joint_jacobians, _frame_placement, _frame_jacobian = (pin.computeJointJacobians, pin.updateFramePlacement,
@@ -129,7 +128,7 @@ class HybridController:
         if S[2] < 1.0:
             self._add_force_terms(xdd, q, J, S, cmd.force_z)
         # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
-        tau = _rnea(model, data, q, v, dgesv(J, xdd)[2])
+        tau = _rnea(model, data, q, v, _solve(J, xdd))
         return _minimum(_maximum(tau, self._tau_min), self.tau_max)
 
     def _add_force_terms(self, xdd: np.ndarray, q: np.ndarray, J: np.ndarray, S: np.ndarray, force_z: float) -> None:
@@ -142,6 +141,19 @@ class HybridController:
         lam_inv_z = J @ _cholesky_solve(model, data, J[2].copy())
         xdd[2] += (1.0 - S[2]) * self.kf[2] * (self.f_est[2] - force_z)
         xdd -= lam_inv_z * force_z
+
+
+def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a^-1 b by LAPACK's dgesv (a 6x6 solve without numpy.linalg's per-call checks). scipy.linalg
+    is imported on the first call, which rebinds this name to the solve itself: the compiled step
+    never calls it, and the import costs 0.2-0.4 s of every process that simulates."""
+    global _solve
+    from scipy.linalg.lapack import dgesv
+
+    def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+        return dgesv(a, b)[2]
+
+    return _solve(a, b)
 
 
 def _rotation_error(target: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -302,8 +302,9 @@ class Task(ABC):
         """A random demonstration command, (horizon + 1, channels); deterministic given `rng`."""
 
     @abstractmethod
-    def simulator(self, settings: Any = None) -> TaskSimulator:
-        """A new simulator of the task's scene (default settings when None)."""
+    def simulator(self, settings: Any = None, render: bool = False) -> TaskSimulator:
+        """A new simulator of the task's scene (default settings when None); `render`: one a
+        camera can draw (`render`), which takes longer to build."""
 
     def explain(self, details: Mapping[str, Any]) -> str:
         """One line on a simulated outcome's details (what `solve` prints after a replay)."""

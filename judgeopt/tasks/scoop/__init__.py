@@ -88,7 +88,7 @@ class ScoopTask(Task):
         from judgeopt.tasks.scoop.render import render_rollout
 
         plan = plan if isinstance(plan, Plan) else self.plan(plan)
-        sim = simulator or self.simulator()
+        sim = simulator or self.simulator(render=True)
         return render_rollout(sim, plan, float(env["y_obj"]), float(env["mu"]), out, caption=caption)
 
     def tables(self) -> dict[str, Any]:
@@ -105,8 +105,8 @@ class ScoopTask(Task):
         cfg = settings.commands if settings is not None else RandomCommandConfig()
         return random_command(rng, float(env["y_obj"]), cfg).as_array()
 
-    def simulator(self, settings: ScoopSettings | None = None) -> TaskSimulator:
+    def simulator(self, settings: ScoopSettings | None = None, render: bool = False) -> TaskSimulator:
         from judgeopt.tasks.scoop.world import WorldSimulator
 
         s = settings or ScoopSettings()
-        return WorldSimulator(s.scene, s.controller, s.rollout)
+        return WorldSimulator(s.scene, s.controller, s.rollout, visual_shapes=render)

@@ -28,6 +28,9 @@ class CameraConfig:
 def render_rollout(sim: Simulator, plan: Plan, y_obj: float, mu: float, out: str | Path,
                    camera: CameraConfig = CameraConfig(), caption: str = "") -> RolloutResult:
     """Replay `plan`, then draw the recorded states; the GIF is written atomically."""
+    if not sim.scene.visual_shapes:
+        raise ValueError("this simulator was built without the arm's meshes, which a camera needs; make it with "
+                         "task.simulator(render=True) or Simulator(visual_shapes=True)")
     result = sim.run(plan, y_obj, mu, record=camera.frame_every_ms)
     sc, c = sim.scene, sim.scene.client
     view = pb.computeViewMatrix(camera.eye, camera.target, [0, 0, 1])

@@ -85,8 +85,8 @@ class Simulator(TaskSimulator):
     """A scene, its controller and the rollout procedure; one per process (PyBullet client)."""
 
     def __init__(self, scene: SceneConfig | None = None, controller: ControllerConfig | None = None,
-                 rollout: RolloutConfig | None = None):
-        self.scene = Scene(scene)
+                 rollout: RolloutConfig | None = None, visual_shapes: bool = True):
+        self.scene = Scene(scene, visual_shapes)
         self.rollout_config = rollout or RolloutConfig()
         g = self.scene.config.spatula
         self.driver = ArmDriver(self.scene.arm, g, controller)

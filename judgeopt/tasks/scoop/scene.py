@@ -85,12 +85,15 @@ def check_environment(y_obj: float, mu: float) -> None:
 class Scene:
     """One PyBullet DIRECT client holding the scene; reset() places the object for a new rollout."""
 
-    def __init__(self, config: SceneConfig | None = None):
+    def __init__(self, config: SceneConfig | None = None, visual_shapes: bool = True):
+        """`visual_shapes`: load the arm's meshes for a camera (render); physics never reads them."""
         self.config = cfg = config or SceneConfig()
+        self.visual_shapes = visual_shapes
         self.client = c = connect(cfg.timestep, cfg.solver_iterations)
         if cfg.plant_inertia not in PLANT_INERTIA:
             raise ValueError(f"plant_inertia = {cfg.plant_inertia!r}; choose one of {PLANT_INERTIA}")
-        self.arm = load_arm(c, cfg.spatula, cfg.wrist_inertia, inertia_from_file=cfg.plant_inertia == "urdf")
+        self.arm = load_arm(c, cfg.spatula, cfg.wrist_inertia, inertia_from_file=cfg.plant_inertia == "urdf",
+                            visual_shapes=visual_shapes)
         self.robot, self.urdf_path = self.arm.robot, self.arm.urdf_path
         self.arm_joints, self.ft_joint = self.arm.arm_joints, self.arm.ft_joint
         links = self.arm.links

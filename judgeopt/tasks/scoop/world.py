@@ -31,10 +31,10 @@ class WorldSimulator(Simulator):
     """`perturb(values, seed)` sets the world of the rollouts that follow; `simulate(plan, env)`
     replays a plan made for `env` in that world (`{}`: the nominal world, the default)."""
 
-    def __init__(self, scene=None, controller=None, rollout=None):
+    def __init__(self, scene=None, controller=None, rollout=None, visual_shapes: bool = True):
         from judgeopt.tasks import get_task
 
-        super().__init__(scene, controller, rollout)
+        super().__init__(scene, controller, rollout, visual_shapes)
         self.task = get_task("scoop")
         sc = self.scene
         info = pb.getDynamicsInfo(sc.obj, -1, physicsClientId=sc.client)
@@ -71,7 +71,7 @@ class WorldSimulator(Simulator):
             scaled = dataclasses.replace(g, diameter=g.diameter * size, thickness=g.thickness * size,
                                          bevel_in=g.bevel_in * size, bevel_height=g.bevel_height * size)
             self._sized[size] = WorldSimulator(dataclasses.replace(self.scene.config, pancake=scaled),
-                                               self.controller.config, self.rollout_config)
+                                               self.controller.config, self.rollout_config, self.scene.visual_shapes)
         return self._sized[size]
 
     def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:

@@ -70,7 +70,7 @@ class ScrapeTask(Task):
 
         return random_command(rng, env, (settings or ScrapeSettings()).commands)
 
-    def simulator(self, settings: ScrapeSettings | None = None) -> TaskSimulator:
+    def simulator(self, settings: ScrapeSettings | None = None, render: bool = False) -> TaskSimulator:
         from judgeopt.tasks.scrape.world import ScrapeWorldSimulator
 
         return ScrapeWorldSimulator((settings or ScrapeSettings()).scene)

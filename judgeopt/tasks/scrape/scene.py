@@ -103,7 +103,7 @@ class ScrapeSimulator(TaskSimulator):
         self.task = get_task("scrape")
         self.config = cfg = config or ScrapeConfig()
         self.client = c = connect(cfg.timestep, cfg.solver_iterations)
-        self.arm = load_arm(c, cfg.spatula)
+        self.arm = load_arm(c, cfg.spatula, visual_shapes=False)  # nothing renders the scrape: physics only
         links = self.arm.links
         self.blade_top, self.blade_bottom = links["blade_top"], links["blade_bottom"]
         self.plate = self._box([0.25, 0.25, 0.05], [0.3, Y_EDGE - 0.25, -0.05], [0.45, 0.5, 0.42, 1])
