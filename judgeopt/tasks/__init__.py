@@ -7,6 +7,7 @@ Tasks load lazily: naming one imports only its own module.
 
 from __future__ import annotations
 
+import functools
 import importlib
 from importlib.metadata import entry_points
 from typing import Callable
@@ -31,10 +32,17 @@ def register_task(name: str, factory: Callable[[], Task]) -> None:
     _LOADED.pop(name, None)
 
 
+@functools.cache
+def _entry_points() -> tuple[tuple[str, str], ...]:
+    """Installed packages' tasks, read once per process: scanning every distribution's metadata
+    takes 20-30 ms, and the command line asks a dozen times while it builds its options."""
+    return tuple((ep.name, ep.value) for ep in entry_points(group="judgeopt.tasks"))
+
+
 def _sources() -> dict[str, str | Callable[[], Task]]:
     found: dict[str, str | Callable[[], Task]] = dict(BUILTIN)
-    for ep in entry_points(group="judgeopt.tasks"):
-        found.setdefault(ep.name, ep.value)
+    for name, value in _entry_points():
+        found.setdefault(name, value)
     found.update(_REGISTERED)
     return found
 
