@@ -85,6 +85,33 @@ class FlatJudge(nn.Module):
         return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
 
 
+class Flat32(nn.Module):
+    """What every float32 flat module (the l4casadi32 backend's) shares: the judge's sizes, its
+    normalisation buffers and head in float32, the normalised (B, T, C + E) features of a
+    (B, (N+1)*C + E) row of raw values, and the (B, 2) [logit, probability] output. casadi_fn
+    sets the buffers to 0 and 1 and normalises in CasADi."""
+
+    def __init__(self, judge: nn.Module) -> None:
+        super().__init__()
+        import copy
+
+        cfg = judge.config
+        self.n_steps, self.n_ch, self.n_env = cfg.horizon + 1, cfg.n_channels, cfg.n_env
+        for name in ("x_mean", "x_std", "e_mean", "e_std"):
+            self.register_buffer(name, getattr(judge, name).detach().float().clone())
+        self.head = copy.deepcopy(judge.head).float()
+
+    def features(self, inp: torch.Tensor) -> torch.Tensor:
+        n, T, B = self.n_steps * self.n_ch, self.n_steps, inp.shape[0]
+        x = (inp[:, :n].reshape(B, T, self.n_ch) - self.x_mean) / self.x_std
+        e = ((inp[:, n:n + self.n_env] - self.e_mean) / self.e_std).unsqueeze(1).expand(B, T, self.n_env)
+        return torch.cat([x, e], dim=-1)
+
+    def output(self, features: torch.Tensor) -> torch.Tensor:
+        logit = self.head(features)
+        return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
+
+
 def fc_head(width: int, units: int, layers: int, dropout: float) -> nn.Sequential:
     """`layers` x (Linear to `units`, ReLU, Dropout), then Linear to one logit."""
     out: list[nn.Module] = []

@@ -13,7 +13,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.judge.archs.base import Arch, casadi_sigmoid, fc_head
+from judgeopt.judge.archs.base import Arch, Flat32, casadi_sigmoid, fc_head
 from judgeopt.judge.errors import JudgeError
 
 
@@ -168,7 +168,7 @@ class UnrolledJudge(nn.Module):
 _MKLDNN_LSTM = 2
 
 
-class FusedLSTMJudge32(nn.Module):
+class FusedLSTMJudge32(Flat32):
     """The judge in float32 with each LSTM layer ONE call of oneDNN's fused kernel
     (aten::mkldnn_rnn_layer, the kernel nn.LSTM itself runs on CPU in float32), for l4casadi.
 
@@ -186,28 +186,19 @@ class FusedLSTMJudge32(nn.Module):
     """
 
     def __init__(self, judge: nn.Module) -> None:
-        super().__init__()
-        cfg = judge.config
-        self.n_steps, self.n_ch, self.n_env = cfg.horizon + 1, cfg.n_channels, cfg.n_env
-        for name in ("x_mean", "x_std", "e_mean", "e_std"):
-            self.register_buffer(name, getattr(judge, name).detach().float().clone())
+        super().__init__(judge)
         lstm = judge.lstm
         self.hidden, self.layers = lstm.hidden_size, lstm.num_layers
         for k in range(lstm.num_layers):  # buffers: constants of the trace, no gradient wanted
             for w in ("weight_ih", "weight_hh", "bias_ih", "bias_hh"):
                 self.register_buffer(f"{w}_l{k}", getattr(lstm, f"{w}_l{k}").detach().float().clone())
-        self.head = copy.deepcopy(judge.head).float()
 
     def forward(self, inp: torch.Tensor) -> torch.Tensor:
-        n, T, B = self.n_steps * self.n_ch, self.n_steps, inp.shape[0]
-        x = (inp[:, :n].reshape(B, T, self.n_ch) - self.x_mean) / self.x_std
-        e = ((inp[:, n:n + self.n_env] - self.e_mean) / self.e_std).unsqueeze(1).expand(B, T, self.n_env)
-        u = torch.cat([x, e], dim=-1).transpose(0, 1).contiguous()  # time-major (T, B, C + E)
-        h0 = torch.zeros(B, self.hidden, dtype=u.dtype)
+        u = self.features(inp).transpose(0, 1).contiguous()  # time-major (T, B, C + E)
+        h0 = torch.zeros(inp.shape[0], self.hidden, dtype=u.dtype)
         train = torch.is_grad_enabled()
         for k in range(self.layers):
             w = [getattr(self, f"{name}_l{k}") for name in ("weight_ih", "weight_hh", "bias_ih", "bias_hh")]
             u = torch.ops.aten.mkldnn_rnn_layer(u, *w, h0, h0, False, [], _MKLDNN_LSTM, self.hidden, 1, True,
                                                 False, False, train)[0]
-        logit = self.head(u[-1])
-        return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
+        return self.output(u[-1])

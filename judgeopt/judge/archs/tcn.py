@@ -11,14 +11,13 @@ l4casadi in float32 the convolutions are written as matrix products (MatmulTCN32
 
 from __future__ import annotations
 
-import copy
 from dataclasses import dataclass
 from typing import Any
 
 import torch
 from torch import nn
 
-from judgeopt.judge.archs.base import Arch, fc_head
+from judgeopt.judge.archs.base import Arch, Flat32, fc_head
 from judgeopt.judge.errors import JudgeError
 
 
@@ -70,7 +69,7 @@ class TCN(Arch):
         return MatmulTCN32(judge)
 
 
-class MatmulTCN32(nn.Module):
+class MatmulTCN32(Flat32):
     """The TCN judge in float32 with each causal convolution as ONE matrix product over all steps:
     the kernel's taps (h shifted by 0, d, 2d, ... steps, zero-padded on the left) side by side,
     (T, K * channels) @ (K * channels, channels). For l4casadi32 (its value and adjoint traces).
@@ -83,11 +82,7 @@ class MatmulTCN32(nn.Module):
     """
 
     def __init__(self, judge: nn.Module) -> None:
-        super().__init__()
-        cfg = judge.config
-        self.n_steps, self.n_ch, self.n_env = cfg.horizon + 1, cfg.n_channels, cfg.n_env
-        for name in ("x_mean", "x_std", "e_mean", "e_std"):
-            self.register_buffer(name, getattr(judge, name).detach().float().clone())
+        super().__init__(judge)
         self.register_buffer("lift_w", judge.lift.weight.detach().float()[:, :, 0].T.contiguous())  # (C + E, ch)
         self.register_buffer("lift_b", judge.lift.bias.detach().float().clone())
         self.taps: list[tuple[int, int]] = []  # (kernel, dilation) per level
@@ -97,16 +92,12 @@ class MatmulTCN32(nn.Module):
             self.register_buffer(f"conv_w{i}", w.contiguous())
             self.register_buffer(f"conv_b{i}", conv.bias.detach().float().clone())
             self.taps.append((conv.kernel_size[0], conv.dilation[0]))
-        self.head = copy.deepcopy(judge.head).float()
 
     def forward(self, inp: torch.Tensor) -> torch.Tensor:
-        n, T, B = self.n_steps * self.n_ch, self.n_steps, inp.shape[0]
-        x = (inp[:, :n].reshape(B, T, self.n_ch) - self.x_mean) / self.x_std
-        e = ((inp[:, n:n + self.n_env] - self.e_mean) / self.e_std).unsqueeze(1).expand(B, T, self.n_env)
-        h = torch.matmul(torch.cat([x, e], dim=-1), self.lift_w) + self.lift_b  # (B, T, channels)
+        T = self.n_steps
+        h = torch.matmul(self.features(inp), self.lift_w) + self.lift_b  # (B, T, channels)
         for i, (K, d) in enumerate(self.taps):
             hp = nn.functional.pad(h, (0, 0, (K - 1) * d, 0))  # causal: zeros before the first step
             taps = torch.cat([hp[:, j * d:j * d + T] for j in range(K)], dim=-1)
             h = h + torch.relu(torch.matmul(taps, getattr(self, f"conv_w{i}")) + getattr(self, f"conv_b{i}"))
-        logit = self.head(torch.cat([h[:, -1], h.mean(dim=1)], dim=1))
-        return torch.cat([logit, torch.sigmoid(logit)], dim=-1)
+        return self.output(torch.cat([h[:, -1], h.mean(dim=1)], dim=1))
