@@ -88,7 +88,8 @@ def kinematics(data: dict, q: cs.SX) -> Kinematics:
 
 
 def _support(data: dict, joint: int) -> list[int]:
-    """Joints from the root to `joint` (its ancestors and itself)."""
+    """Joints from the root to `joint` (its ancestors and itself), in no order that matters: the
+    Jacobian's columns are indexed by joint."""
     chain = []
     while joint > 0:
         chain.append(joint)
@@ -107,7 +108,7 @@ def frame_jacobian(data: dict, kin: Kinematics) -> cs.SX:
     return J
 
 
-def _motion_axes(data: dict, kin: Kinematics) -> list:
+def _motion_axes(kin: Kinematics) -> list:
     """Each joint's unit motion at the world origin: (p x w, w)."""
     return [None] + [cs.vertcat(cs.cross(kin.p[j], kin.w[j]), kin.w[j]) for j in range(1, len(kin.p))]
 
@@ -136,7 +137,7 @@ def mass_matrix(data: dict, kin: Kinematics) -> cs.SX:
     """The joint-space mass matrix by composite rigid bodies: M[i, j] = S_i . (Ic_j S_j) for i an
     ancestor of j (or j itself), Ic_j the inertia of j's subtree."""
     parents, n = data["parents"], len(kin.p)
-    S, I = _motion_axes(data, kin), _world_inertias(data, kin)
+    S, I = _motion_axes(kin), _world_inertias(data, kin)
     composite = list(I)
     for j in range(n - 1, 0, -1):  # a parent's index is below its children's
         k = parents[j]
@@ -162,7 +163,7 @@ def rnea(data: dict, kin: Kinematics, v: cs.SX, a: cs.SX) -> cs.SX:
     """Inverse dynamics tau = M(q) a + C(q, v) v + g(q) by recursive Newton-Euler, gravity as
     the base's upward acceleration (Pinocchio's convention)."""
     parents, n = data["parents"], len(kin.p)
-    S, I = _motion_axes(data, kin), _world_inertias(data, kin)
+    S, I = _motion_axes(kin), _world_inertias(data, kin)
     vel = [cs.SX.zeros(6, 1)] * n
     acc = [cs.vertcat(-cs.SX(np.array(data["gravity"])), cs.SX.zeros(3, 1))] * n
     f = [None] * n

@@ -15,8 +15,10 @@ the blade presses with the commanded force and the force loop only corrects erro
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -128,7 +130,7 @@ class HybridController:
         if S[2] < 1.0:
             self._add_force_terms(xdd, q, J, S, cmd.force_z)
         # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
-        tau = _rnea(model, data, q, v, _solve(J, xdd))
+        tau = _rnea(model, data, q, v, _dgesv()(J, xdd)[2])
         return _minimum(_maximum(tau, self._tau_min), self.tau_max)
 
     def _add_force_terms(self, xdd: np.ndarray, q: np.ndarray, J: np.ndarray, S: np.ndarray, force_z: float) -> None:
@@ -143,17 +145,13 @@ class HybridController:
         xdd -= lam_inv_z * force_z
 
 
-def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a^-1 b by LAPACK's dgesv (a 6x6 solve without numpy.linalg's per-call checks). scipy.linalg
-    is imported on the first call, which rebinds this name to the solve itself: the compiled step
-    never calls it, and the import costs 0.2-0.4 s of every process that simulates."""
-    global _solve
+@functools.cache
+def _dgesv() -> Callable:
+    """LAPACK's dgesv (a 6x6 solve without numpy.linalg's per-call checks), imported at the Python
+    step's first call: the compiled step never needs scipy.linalg, 0.2-0.4 s of a process's start."""
     from scipy.linalg.lapack import dgesv
 
-    def _solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-        return dgesv(a, b)[2]
-
-    return _solve(a, b)
+    return dgesv
 
 
 def _rotation_error(target: np.ndarray, R: np.ndarray) -> np.ndarray:

@@ -181,3 +181,22 @@ def test_the_library_is_built_once_and_reused(urdf, tmp_path):
 def test_an_unknown_step_is_refused(urdf):
     with pytest.raises(ValueError, match="'compiled' or 'python'"):
         make_controller(urdf, PAYLOAD, config=ControllerConfig(step="fortran"))
+
+
+def test_ik_places_the_tcp_exactly_and_refuses_a_pose_out_of_reach(pair):
+    """The arm's placement before every rollout: a reachable pose to 1e-9 m; one a little beyond
+    the tool's reach (the best IK gets is 0.25 off) is refused in one line, not returned as a wrong pose."""
+    import pinocchio as pin
+
+    from judgeopt.sim.arm import HOME_POSTURE
+    from judgeopt.sim.controller import solve_ik
+
+    ctl = pair[1]
+    target = pin.SE3(np.eye(3), np.array([0.45, 0.1, 0.15]))
+    q = solve_ik(ctl.model, ctl.tcp, target, HOME_POSTURE)
+    data = ctl.model.createData()
+    pin.framesForwardKinematics(ctl.model, data, q)
+    assert np.abs(data.oMf[ctl.tcp].translation - target.translation).max() < 1e-9
+    assert np.abs(data.oMf[ctl.tcp].rotation - np.eye(3)).max() < 1e-9
+    with pytest.raises(ValueError, match="cannot reach"):
+        solve_ik(ctl.model, ctl.tcp, pin.SE3(np.eye(3), np.array([0.9, 0.1, 0.15])), HOME_POSTURE)
