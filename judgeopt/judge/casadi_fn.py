@@ -58,6 +58,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from judgeopt.cbuild import CompileError, compiled_library
 from judgeopt.files import publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
@@ -264,29 +265,13 @@ def _compiled_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
     key = _cache_key(judge, "compiled", cs.__version__)
     name = f"judge_c_{key}"
     where = root / "compiled" / key
-    lib = where / f"lib{name}.so"
-    if (where / "complete.json").exists() and lib.exists():
-        return cs.external(name, str(lib)), True, where
-    if shutil.which("gcc") is None:
-        raise CasadiBuildError("the 'compiled' backend needs gcc on PATH")
-    log.info("compiling the judge as C (once per judge, about 80 s; cached in %s)", where)
     fn = _native_function(judge, name)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
     try:
-        cg = cs.CodeGenerator(f"{name}.c", {"with_header": False})
-        cg.add(fn)
-        cg.add(fn.reverse(1))
-        cg.add(fn.jacobian())
-        cg.generate(str(tmp) + os.sep)
-        cmd = ["gcc", "-O2", "-fPIC", "-shared", str(tmp / f"{name}.c"), "-o", str(tmp / lib.name), "-lm"]
-        res = subprocess.run(cmd, capture_output=True, text=True)
-        if res.returncode != 0:
-            raise CasadiBuildError(f"gcc failed building {name}: {res.stderr[-2000:]}")
-        (tmp / "complete.json").write_text(json.dumps({"backend": "compiled", "casadi": cs.__version__}))
-        publish_dir(tmp, where)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
-    return cs.external(name, str(lib)), False, where
+        lib, hit = compiled_library([fn, fn.reverse(1), fn.jacobian()], where, name, info={"backend": "compiled"},
+                                    note=f"compiling the judge as C (once per judge, about 80 s; cached in {where})")
+    except CompileError as exc:
+        raise CasadiBuildError(f"the 'compiled' backend: {exc}") from None
+    return cs.external(name, str(lib)), hit, where
 
 
 # -- l4casadi -------------------------------------------------------------------------------

@@ -16,17 +16,14 @@ import hashlib
 import json
 import logging
 import operator
-import os
-import shutil
 import struct
-import subprocess
-import tempfile
 from pathlib import Path
 
 import casadi as cs
 import numpy as np
 
-from judgeopt.files import cache_dir, publish_dir
+from judgeopt.cbuild import CompileError, compiled_library
+from judgeopt.files import cache_dir
 from judgeopt.sim import chain
 from judgeopt.sim.controller import IDENTITY, ControllerConfig, HybridController, TaskCommand
 
@@ -43,10 +40,6 @@ _IN = (("q", "nv"), ("sensor_joint", 1), ("force", 3), ("has_force", 1), ("force
 _OUT = (("tau", "nv"), ("qd_new", "nv"), ("f_new", 3), ("position", 3), ("velocity", 6), ("rotation", 9))
 _SYMBOL = "judgeopt_control_step"
 _first = operator.itemgetter(0)
-
-
-class BuildError(RuntimeError):
-    """The compiled step could not be built or loaded (no gcc, a failed compile, an unsupported model)."""
 
 
 def layout(nv: int) -> tuple[dict[str, slice], dict[str, slice], int]:
@@ -159,33 +152,11 @@ def cache_key(model_data: dict) -> str:
 
 def build_library(model_data: dict, root: Path | None = None) -> Path:
     """The compiled step's shared library for this model, built once (a few seconds) and kept in
-    the cache folder: written in a temporary folder, then renamed into place."""
+    the cache folder (judgeopt.cbuild)."""
     key = cache_key(model_data)
-    where = Path(root or cache_dir()) / "control_step" / key
-    lib = where / "libcontrol_step.so"
-    if (where / "complete.json").exists() and lib.exists():
-        return lib
-    if shutil.which("gcc") is None:
-        raise BuildError("gcc is not on PATH")
-    where.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=where.parent))
-    try:
-        free, force = step_functions(model_data)
-        cg = cs.CodeGenerator("control_step.c", {"with_header": False})
-        cg.add(free)
-        cg.add(force)
-        cg.generate(str(tmp) + os.sep)
-        src = tmp / "control_step.c"
-        with src.open("a") as f:
-            f.write(_wrapper(free, force, len(model_data["axes"])))
-        res = subprocess.run(["gcc", "-O2", "-fPIC", "-shared", str(src), "-o", str(tmp / lib.name), "-lm"],
-                             capture_output=True, text=True)
-        if res.returncode != 0:
-            raise BuildError(f"gcc failed: {res.stderr.strip()[-500:]}")
-        (tmp / "complete.json").write_text(json.dumps({"casadi": cs.__version__, "key": key}))
-        publish_dir(tmp, where)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    free, force = step_functions(model_data)
+    lib, _ = compiled_library([free, force], Path(root or cache_dir()) / "control_step" / key, "control_step",
+                              extra_c=_wrapper(free, force, len(model_data["axes"])), info={"key": key})
     return lib
 
 
@@ -323,6 +294,6 @@ def make_controller(urdf_path: str, payload_weight: float, tcp_frame: str = "tcp
         raise ValueError(f"controller step {cfg.step!r}: choose 'compiled' or 'python'")
     try:
         return CompiledController(urdf_path, payload_weight, tcp_frame, cfg)
-    except (BuildError, chain.UnsupportedModel, OSError, RuntimeError) as e:
+    except (CompileError, chain.UnsupportedModel, OSError, RuntimeError) as e:
         log.warning("compiled control step unavailable (%s); using the Python step", str(e).splitlines()[0])
         return HybridController(urdf_path, payload_weight, tcp_frame, cfg)

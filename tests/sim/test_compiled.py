@@ -11,7 +11,9 @@ import pytest
 
 from judgeopt.sim import compiled
 from judgeopt.sim.arm import HOME_POSTURE
-from judgeopt.sim.compiled import BuildError, CompiledController, make_controller
+from judgeopt import cbuild
+from judgeopt.cbuild import CompileError
+from judgeopt.sim.compiled import CompiledController, make_controller
 from judgeopt.sim.controller import IDENTITY, ControllerConfig, HybridController, TaskCommand
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 
@@ -149,7 +151,7 @@ def test_a_closed_loop_response_is_the_pinned_one(step):
 
 def test_a_failed_build_falls_back_to_the_python_step_with_one_log_line(urdf, monkeypatch, caplog):
     def fail(*args, **kwargs):
-        raise BuildError("gcc failed: control_step.c:1: error: something\nmore lines")
+        raise CompileError("gcc failed: control_step.c:1: error: something\nmore lines")
 
     monkeypatch.setattr(compiled, "build_library", fail)
     with caplog.at_level(logging.INFO, logger="judgeopt"):
@@ -161,7 +163,7 @@ def test_a_failed_build_falls_back_to_the_python_step_with_one_log_line(urdf, mo
 
 def test_no_gcc_falls_back_to_the_python_step(urdf, monkeypatch, caplog, tmp_path):
     monkeypatch.setenv("JUDGEOPT_CACHE", str(tmp_path))  # nothing built there yet
-    monkeypatch.setattr(compiled.shutil, "which", lambda name: None)
+    monkeypatch.setattr(cbuild.shutil, "which", lambda name: None)
     with caplog.at_level(logging.INFO, logger="judgeopt"):
         ctl = make_controller(urdf, PAYLOAD)
     assert type(ctl) is HybridController
