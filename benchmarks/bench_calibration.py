@@ -15,22 +15,17 @@ the generator 1-2 ms per plan.
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
-import os
 import subprocess
 import sys
 import time
 
 import numpy as np
 
+from busy import Load
+
 from judgeopt.files import resolve
 from judgeopt.planners.calibration import NEIGHBOURS, inputs, load_calibration
 from judgeopt.planners.problem import LIMIT_NAMES, load_problem
-
-
-def _spin() -> None:
-    while True:
-        pass
 
 
 def main() -> None:
@@ -38,9 +33,7 @@ def main() -> None:
     ap.add_argument("--n", type=int, default=500)
     ap.add_argument("--busy", action="store_true")
     args = ap.parse_args()
-    busy = [mp.Process(target=_spin, daemon=True) for _ in range(os.cpu_count() or 1)] if args.busy else []
-    for p in busy:
-        p.start()
+    load = Load(args.busy)
     problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(qdot_max=0.4)
     cal = next(c for c in load_calibration(resolve(problem.calibration)).values() if c.method == "direct"
                and c.judge_sha256 and len(c.points) > 100)
@@ -50,16 +43,16 @@ def main() -> None:
 
     tree = cKDTree(np.asarray(cal.points))
     brute, kd = [], []
-    for _ in range(args.n):
-        t = time.perf_counter()
-        cal.annotate(x, 0.99)
-        brute.append(time.perf_counter() - t)
-        t = time.perf_counter()
-        cal.predict(e, p)
-        tree.query(cal._scaled(e, p), k=[NEIGHBOURS])
-        kd.append(time.perf_counter() - t)
-    for q in busy:
-        q.terminate()
+    with load.busy():
+        for _ in range(args.n):
+            t = time.perf_counter()
+            cal.annotate(x, 0.99)
+            brute.append(time.perf_counter() - t)
+            t = time.perf_counter()
+            cal.predict(e, p)
+            tree.query(cal._scaled(e, p), k=[NEIGHBOURS])
+            kd.append(time.perf_counter() - t)
+    load.close()
     t = time.perf_counter()
     subprocess.run([sys.executable, "-c", "import numpy"], check=True)
     bare = time.perf_counter() - t
@@ -67,7 +60,7 @@ def main() -> None:
     subprocess.run([sys.executable, "-c", "import numpy, scipy.spatial"], check=True)
     spatial = time.perf_counter() - t - bare
     a, b = 1e3 * np.median(brute), 1e3 * np.median(kd)
-    print(f"{'busy' if busy else 'idle'} ({len(cal.points)} fitted points): annotate {a:.3f} ms by brute force, "
+    print(f"{'busy' if load.procs else 'idle'} ({len(cal.points)} fitted points): annotate {a:.3f} ms by brute force, "
           f"{b:.3f} ms with a k-d tree built once; ratio {b / a:.2f}x; importing scipy.spatial for the tree: "
           f"{1e3 * spatial:.0f} ms per process")
 

@@ -24,9 +24,7 @@ against the warm loop's median above; --before DIR: the same on an earlier commi
 from __future__ import annotations
 
 import argparse
-import contextlib
 import json
-import multiprocessing as mp
 import os
 import subprocess
 import sys
@@ -35,6 +33,8 @@ from pathlib import Path
 
 import numpy as np
 import torch
+
+from busy import Load
 
 from judgeopt.files import resolve
 from judgeopt.judge.casadi_fn import build_casadi_judge
@@ -76,39 +76,6 @@ def parse_variant(text: str) -> tuple[dict, str, dict]:
     if ipopt:
         opts["ipopt"] = ipopt
     return over, backend, opts
-
-
-class Load:
-    """One spinning process per core, switched on and off between timings (an Event), so idle
-    and busy solves alternate in one run and see the same machine otherwise."""
-
-    def __init__(self, on: bool) -> None:
-        self.event = mp.Event()
-        self.procs = [mp.Process(target=_spin, args=(self.event,), daemon=True) for _ in range(os.cpu_count() or 1)] if on else []
-        for q in self.procs:
-            q.start()
-
-    @contextlib.contextmanager
-    def busy(self):
-        self.event.set()
-        time.sleep(0.05)  # let the spinners take the cores
-        try:
-            yield
-        finally:
-            self.event.clear()
-
-    def close(self) -> None:
-        for q in self.procs:
-            q.terminate()
-
-
-def _spin(event) -> None:
-    while True:
-        event.wait()
-        x = 0
-        while event.is_set():
-            for _ in range(10000):
-                x += 1
 
 
 def timed(load: Load, fn):

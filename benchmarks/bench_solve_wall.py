@@ -14,22 +14,17 @@ profiled by phase inside the process: imports, loading the models, planning, sim
 from __future__ import annotations
 
 import argparse
-import multiprocessing as mp
-import os
 import statistics
 import subprocess
 import sys
 import time
 
+from busy import Load
+
 COMMAND = ["solve", "--qdot-max", "0.4"]
 FLOORS = {"python": "pass", "torch": "import torch", "casadi + numpy": "import casadi, numpy",
           "pybullet + pinocchio": "import pybullet, pinocchio",
           "all four": "import torch, casadi, numpy, pybullet, pinocchio"}
-
-
-def _spin() -> None:
-    while True:
-        pass
 
 
 def wall(args: list[str]) -> float:
@@ -43,19 +38,17 @@ def main() -> None:
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--busy", action="store_true")
     args = ap.parse_args()
-    busy = [mp.Process(target=_spin, daemon=True) for _ in range(os.cpu_count() or 1)] if args.busy else []
-    for p in busy:
-        p.start()
+    load = Load(args.busy)
     cli = [sys.executable, "-m", "judgeopt.cli", *COMMAND]
-    runs = [wall(cli) for _ in range(args.runs)]
-    floors = {name: statistics.median(wall([sys.executable, "-c", code]) for _ in range(args.runs))
-              for name, code in FLOORS.items()}
-    profile = subprocess.run([sys.executable, "-X", "importtime", *cli[1:]], capture_output=True, text=True)
-    for p in busy:
-        p.terminate()
+    with load.busy():
+        runs = [wall(cli) for _ in range(args.runs)]
+        floors = {name: statistics.median(wall([sys.executable, "-c", code]) for _ in range(args.runs))
+                  for name, code in FLOORS.items()}
+        profile = subprocess.run([sys.executable, "-X", "importtime", *cli[1:]], capture_output=True, text=True)
+    load.close()
     imports = sum(int(line.split("|")[0].split(":")[1]) for line in profile.stderr.splitlines()
                   if line.startswith("import time:") and line.split("|")[0].split(":")[1].strip().isdigit())
-    print(f"`judgeopt {' '.join(COMMAND)}`, {'cores busy' if busy else 'idle'}: wall per run "
+    print(f"`judgeopt {' '.join(COMMAND)}`, {'cores busy' if load.procs else 'idle'}: wall per run "
           + ", ".join(f"{t:.2f}" for t in runs) + f" s (second run {runs[min(1, len(runs) - 1)]:.2f} s)")
     print(f"  of which imports (python -X importtime, all modules): {imports / 1e6:.2f} s")
     for name, t in floors.items():
