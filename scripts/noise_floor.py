@@ -62,18 +62,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from judgeopt.evaluate.report import wilson  # noqa: E402
+
 DEFAULT_EPS = {"command": 1e-9, "object": 1e-7}
 REPO = Path(__file__).resolve().parents[1]
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    if n == 0:
-        return float("nan"), float("nan")
-    p = k / n
-    d = 1 + z * z / n
-    c = (p + z * z / (2 * n)) / d
-    h = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return float(max(0.0, c - h)), float(min(1.0, c + h))
 
 
 def bootstrap(values: np.ndarray, seed: int, n_boot: int = 10000) -> tuple[float, float]:

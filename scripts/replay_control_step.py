@@ -29,14 +29,11 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from judgeopt.evaluate.report import wilson  # noqa: E402
+from judgeopt.threads import set_threads  # noqa: E402
+
 REPO = Path(__file__).resolve().parents[1]
 CHUNK = 25
-
-
-def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
-    p, d = k / n, 1 + z * z / n
-    c, h = (p + z * z / (2 * n)) / d, z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
-    return float(max(0.0, c - h)), float(min(1.0, c + h))
 
 
 def recorded_test(meta: dict) -> str:
@@ -74,12 +71,10 @@ def run_chunk(data: str, step: str, rows: list[int]) -> dict:
 
 def judge_scores(judge: str, ds, responses: np.ndarray, labels: np.ndarray) -> dict:
     """The judge's accuracy (Wilson 95 %) on these responses and labels."""
-    import torch
-
     from judgeopt.judge.model import select_env
     from judgeopt.judge.store import load_judge
 
-    torch.set_num_threads(1)
+    set_threads(1)
     model, _ = load_judge(REPO / judge if not Path(judge).exists() else judge)
     p = model.predict_proba(responses, select_env(ds.env[:len(labels)], ds.env_names, model.config.env_names))
     right = int(((p >= 0.5) == labels.astype(bool)).sum())
