@@ -46,6 +46,7 @@ def index(task: str) -> list[ModelEntry]:
     root = task_folder(task)
     others = [task_folder(t) for t in task_names() if t != task]
     entries: dict[Path, ModelEntry] = {}
+    metas: dict[Path, dict[str, Any]] = {}
     for js in sorted(root.rglob("*.json")):
         if any(root in o.parents and o in js.parents for o in others) or js.name.endswith(".history.json"):
             continue
@@ -53,15 +54,15 @@ def index(task: str) -> list[ModelEntry]:
             if js.name == "ensemble.json":
                 entries[js.parent] = _ensemble(js)
             continue
-        entry = _entry(js)
+        meta = _meta(js)
+        entry = _entry(js, meta)
         if entry is not None:
-            entries[js.with_suffix("")] = entry
-    by_sha = {e.name: e for e in entries.values() if e.kind == "judge"}
-    shas = {_meta(resolve(n, (".json",)).with_suffix(".json")).get("weights_sha256"): n for n in by_sha}
+            entries[js.with_suffix("")], metas[js.with_suffix("")] = entry, meta
+    judges = {metas[p].get("weights_sha256"): e.name for p, e in entries.items() if e.kind == "judge"}
     for path, e in entries.items():
         if e.kind == "generator":
-            sha = (_meta(path.with_suffix(".json")).get("judge") or {}).get("weights_sha256")
-            e.trained_against = shas.get(sha, "a judge not shipped" if sha else None)
+            sha = (metas[path].get("judge") or {}).get("weights_sha256")
+            e.trained_against = judges.get(sha, "a judge not shipped" if sha else None)
     _mark_defaults(task, entries)
     return list(entries.values())
 
@@ -78,8 +79,7 @@ def _name(path: Path) -> str:
     return str(Path("models") / path.with_suffix("").relative_to(resolve("models")))
 
 
-def _entry(js: Path) -> ModelEntry | None:
-    meta = _meta(js)
+def _entry(js: Path, meta: dict[str, Any]) -> ModelEntry | None:
     fmt = str(meta.get("format", ""))
     name = _name(js)
     made = meta.get("command") or meta.get("source")
