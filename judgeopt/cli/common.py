@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import shlex
 import sys
 from pathlib import Path
@@ -190,9 +191,17 @@ def command_line() -> str:
     return "judgeopt " + " ".join(shlex.quote(a) for a in argv)
 
 
+def finite(text: str) -> float:
+    """A number, never nan or inf (a ValueError, as float's, so each option's message holds)."""
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(text)
+    return value
+
+
 def floats(text: str) -> tuple[float, ...]:
     try:
-        return tuple(float(v) for v in text.split(","))
+        return tuple(finite(v) for v in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
 
@@ -200,7 +209,7 @@ def floats(text: str) -> tuple[float, ...]:
 def value_range(text: str) -> tuple[float, float]:
     """LO,HI (two numbers)."""
     try:
-        lo, hi = (float(v) for v in text.split(","))
+        lo, hi = (finite(v) for v in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not LO,HI (two numbers)") from None
     return lo, hi

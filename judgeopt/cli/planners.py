@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -12,8 +11,8 @@ from typing import Any
 
 import numpy as np
 
-from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path, out_option,
-                                 positive, seed_option, threads_option, value_range)
+from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path,
+                                 finite, out_option, positive, seed_option, threads_option, value_range)
 from judgeopt.files import refuse_overwrite
 from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
@@ -28,13 +27,6 @@ def _number_or_name(text: str) -> float | str:
         return float(text)
     except ValueError:
         return text  # "free" or an environment variable; the problem checks which
-
-
-def _finite(text: str) -> float:
-    value = float(text)
-    if not math.isfinite(value):
-        raise ValueError(text)
-    return value
 
 
 def _per_axis(convert):
@@ -52,7 +44,7 @@ def _parser_type(name: str):
     if name == "q_end":
         return _per_axis(_number_or_name)
     if name in AXIS_FIELDS + FORCE_FIELDS:
-        return _per_axis(_finite)
+        return _per_axis(finite)
     if name in SECTIONS["models"] or str(FIELD_TYPES[name]) == "str":
         return str
     return int if str(FIELD_TYPES[name]) == "int" else float

@@ -46,3 +46,14 @@ def test_bad_solve_input_is_one_line_before_any_planning(args, says, tmp_path, c
         rc = exc.code
     err = capsys.readouterr().err.strip().splitlines()
     assert rc not in (0, 1) and len(err) == 1 and says in err[0], err
+
+
+@pytest.mark.parametrize("args", [["evaluate", "edge", "--qdot-max", "0.4,nan"], ["evaluate", "edge", "--edge-span", "10,inf"],
+                                  ["evaluate", "sweep", "--vary", "mu=1,nan"]])
+def test_no_number_option_takes_nan_or_inf(args, capsys):
+    from judgeopt.cli.main import main
+
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exc.value.code == 2 and len(err) == 1 and ("nan" in err[0] or "inf" in err[0]), err
