@@ -19,12 +19,13 @@ from typing import Any, Sequence
 
 import casadi as cs
 
+from judgeopt.errors import Missing
 from judgeopt.files import publish_dir
 
 log = logging.getLogger("judgeopt")
 
 
-class CompileError(RuntimeError):
+class CompileError(Missing, RuntimeError):
     """gcc is missing or failed; the message says which (gcc's last lines)."""
 
 

@@ -14,6 +14,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator, Sequence
 
+from judgeopt.errors import OutputExists
+
 #: the installed package: shipped models in models/, each task's problems in tasks/NAME/problems/
 PACKAGE = Path(__file__).resolve().parent
 #: the source checkout (in an installed wheel, site-packages): git provenance, data/, docs/
@@ -45,7 +47,7 @@ def cache_dir() -> Path:
     return Path(user_cache_dir("judgeopt", appauthor=False))
 
 
-class OverwriteError(FileExistsError):
+class OverwriteError(OutputExists, FileExistsError):
     """A command would replace a file the user has not said it may replace."""
 
 

@@ -16,6 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from judgeopt.errors import BadInput
+
 DEFAULT_DT = 0.05
 DEFAULT_HORIZON = 30
 
@@ -25,7 +27,7 @@ UNITS = {"y": "m", "ydot": "m/s", "f": "N"}
 KINDS = ("position", "velocity", "force")
 
 
-class PlanError(ValueError):
+class PlanError(BadInput, ValueError):
     """A plan of the wrong shape, with non-finite values, or outside what the arm can do."""
 
 

@@ -6,45 +6,20 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import shlex
 import sys
 from pathlib import Path
-from enum import IntEnum
+
+from judgeopt.errors import EXIT_MEANINGS, ExitCode, JudgeoptError  # noqa: F401 (re-exported)
 
 
-class ExitCode(IntEnum):
-    """What `judgeopt` returns (README, "Exit codes"; `judgeopt --help`)."""
-
-    OK = 0
-    INTERNAL = 1
-    USAGE = 2
-    INFEASIBLE = 3
-    UNLIKELY = 4
-    BAD_INPUT = 5
-    EXISTS = 6
-    MISSING = 7
-    INTERRUPTED = 130
-
-
-EXIT_MEANINGS = {
-    ExitCode.OK: "done",
-    ExitCode.INTERNAL: "a bug in judgeopt: the traceback is printed, please report it",
-    ExitCode.USAGE: "a bad option, value or combination of options",
-    ExitCode.INFEASIBLE: "the limits admit no plan at all (found before any solver runs)",
-    ExitCode.UNLIKELY: "plans were made, but no method's plan is likely to succeed",
-    ExitCode.BAD_INPUT: "a file (dataset, model, problem, plan, recording) that cannot be read or used",
-    ExitCode.EXISTS: "an output exists and --overwrite was not given",
-    ExitCode.MISSING: "an optional dependency is not installed, or the judge library could not be built",
-    ExitCode.INTERRUPTED: "Ctrl-C or SIGTERM: workers stopped; a collection resumes when rerun",
-}
-
-
-class CLIError(Exception):
+class CLIError(JudgeoptError):
     """A user-facing error: printed as one line (exit code 2 unless given)."""
 
     def __init__(self, message: str, code: ExitCode = ExitCode.USAGE):
         super().__init__(message)
-        self.code = code
+        self.code = self.exit_code = code
 
 
 #: optional modules and the extra that installs them (pyproject.toml [project.optional-dependencies])
@@ -89,12 +64,19 @@ class ListingHelpFormatter(argparse.RawDescriptionHelpFormatter, HelpFormatter):
     """The same, with the description and epilog kept as written (a list of exit codes)."""
 
 
+_NUMBER = r"(?:(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?|inf(?:inity)?|nan)"
+#: what an option takes as a value, not as another option: a negative number or a list of numbers
+#: starting with one (-5, -1e-3, -inf, -0.05,-0.02); argparse's own takes only -5 and -0.5
+NEGATIVE_NUMBER = re.compile(rf"^-{_NUMBER}(?:,\s*[-+]?{_NUMBER})*$", re.IGNORECASE)
+
+
 class Parser(argparse.ArgumentParser):
     """judgeopt's parser: its help format for every subcommand, usage errors as JSON under --json."""
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", HelpFormatter)
         super().__init__(*args, **kwargs)
+        self._negative_number_matcher = NEGATIVE_NUMBER  # `--f-max -inf` reaches the option's own check
 
     def error(self, message: str):
         """One line (the usage is one --help away), or under --json one object."""
@@ -130,12 +112,25 @@ def figure_path(text: str) -> str:
     return text
 
 
+def file_path(text: str) -> str:
+    """A file to write: anything but an existing folder (refused before any work is done)."""
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder; give a file to write, e.g. {path / 'NAME'}")
+    return text
+
+
+#: --out's kinds: its metavar and the check of what is given
+OUT_KINDS = {"FILE": ("FILE", file_path), "IMAGE": ("FILE", figure_path), "DIR": ("DIR", _folder), "STEM": ("STEM", None)}
+
+
 def out_option(kind: str, what: str, required: bool = False, default: str | None = None) -> argparse.ArgumentParser:
-    """--out, named for what it is: FILE, DIR (a folder: an existing file is refused) or STEM (a
-    model path without suffix)."""
+    """--out, named for what it is: FILE (an existing folder is refused), IMAGE (a FILE whose
+    suffix names an image format), DIR (a folder: an existing file is refused) or STEM (a model
+    path without suffix)."""
+    metavar, check = OUT_KINDS[kind]
     p = _parent()
-    p.add_argument("--out", metavar=kind, required=required, default=default, help=what,
-                   type=_folder if kind == "DIR" else None)
+    p.add_argument("--out", metavar=metavar, required=required, default=default, help=what, type=check)
     return p
 
 
@@ -199,19 +194,27 @@ def finite(text: str) -> float:
     return value
 
 
+def number(text: str) -> float:
+    """An option's number: finite (nan or inf refused in one line naming the option)."""
+    try:
+        return finite(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}") from None
+
+
 def floats(text: str) -> tuple[float, ...]:
     try:
         return tuple(finite(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got {text!r}") from None
 
 
 def value_range(text: str) -> tuple[float, float]:
-    """LO,HI (two numbers)."""
+    """LO,HI (two finite numbers)."""
     try:
         lo, hi = (finite(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not LO,HI (two numbers)") from None
+        raise argparse.ArgumentTypeError(f"{text!r} is not LO,HI (two finite numbers)") from None
     return lo, hi
 
 
@@ -243,7 +246,7 @@ def env_assignment(text: str) -> tuple[str, str]:
     """NAME=X or NAME=LO,HI (the value is checked by the problem, which knows the variable)."""
     name, sep, value = text.partition("=")
     if not sep or not name.strip() or not value.strip():
-        raise argparse.ArgumentTypeError(f"expected NAME=X or NAME=LO,HI, e.g. mu=2, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected NAME=X or NAME=LO,HI, got {text!r}")
     return name.strip(), value.strip()
 
 

@@ -7,7 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.common import OVERWRITE, CLIError, out_option
+from judgeopt.cli.common import OVERWRITE, CLIError, number, out_option
 from judgeopt.files import refuse_overwrite
 from judgeopt.trajectory import PlanError
 
@@ -59,8 +59,8 @@ def add_export_commands(sub: argparse._SubParsersAction) -> None:
 
     e.add_argument("--format", choices=tuple(EXPORTERS), help=f"{' or '.join(EXPORTERS)} (default: from the --out "
                    "suffix)")
-    e.add_argument("--step", type=float, default=1e-3, metavar="S",
+    e.add_argument("--step", type=number, default=1e-3, metavar="S",
                    help="sample period of the written commands in s (default 0.001: the controller's 1 kHz)")
-    e.add_argument("--start-time", type=float, default=0.0, metavar="S",
+    e.add_argument("--start-time", type=number, default=0.0, metavar="S",
                    help="MCAP: time stamp of the first sample in s since the epoch (default 0: the plan's own time)")
     e.set_defaults(func=cmd_export)

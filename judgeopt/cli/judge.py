@@ -14,8 +14,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, names, out_option, positive,
-                                 seed_option, threads_option)
+from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, names, number, out_option,
+                                 positive, seed_option, threads_option)
 from judgeopt.files import refuse_overwrite, resolve
 
 from judgeopt.tasks import DEFAULT_TASK, get_task
@@ -322,10 +322,10 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.add_argument("--test", metavar="FILE", help="held-out test dataset (HDF5), reported every epoch")
     t.add_argument("--epochs", type=positive, default=TrainConfig.epochs, help="passes over --train")
     t.add_argument("--batch-size", type=positive, default=TrainConfig.batch_size, help="demonstrations per step")
-    t.add_argument("--lr", type=float, default=TrainConfig.lr, help="peak learning rate (cosine-annealed)")
-    t.add_argument("--input-noise", type=float, default=TrainConfig.input_noise,
+    t.add_argument("--lr", type=number, default=TrainConfig.lr, help="peak learning rate (cosine-annealed)")
+    t.add_argument("--input-noise", type=number, default=TrainConfig.input_noise,
                    help="training input noise, in normalisation std units")
-    t.add_argument("--val-fraction", type=float, default=0.1, help="share of --train held out for model selection")
+    t.add_argument("--val-fraction", type=number, default=0.1, help="share of --train held out for model selection")
     t.add_argument("--env-names", type=names, help="environment variables the judge sees (default: all in --train)")
     t.add_argument("--invert-labels", action="store_true", help="train on 1 - label (paper Table 4 control)")
     t.add_argument("--init", metavar="JUDGE",
@@ -341,8 +341,8 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
                    + "; ".join(f"{a}: {', '.join(arch_fields(a))}" for a in ARCHS))
     t.add_argument("--lstm-units", type=positive, help="--set lstm_units=: units of each of the LSTM layers")
     t.add_argument("--fc-units", type=positive, help="--set fc_units=: units of the feed-forward layers")
-    t.add_argument("--dropout", type=float, help="--set dropout=: dropout of the feed-forward layers")
-    t.add_argument("--lstm-dropout", type=float, help="--set lstm_dropout=: dropout between the LSTM layers")
+    t.add_argument("--dropout", type=number, help="--set dropout=: dropout of the feed-forward layers")
+    t.add_argument("--lstm-dropout", type=number, help="--set lstm_dropout=: dropout between the LSTM layers")
     t.set_defaults(func=cmd_train_judge)
 
     e = subparsers.add_parser(

@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import logging
+import os
 import sys
 import warnings
 from pathlib import Path
+from typing import Iterator
 
 import numpy as np
 
@@ -15,6 +18,8 @@ from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, env_range, env_values, jobs_option, missing_extra,
                                  out_option, positive, print_error, seed_option, set_argv, threads_option, value_range, wants_json)
+from judgeopt.cli.examples import example_perturbation
+from judgeopt.errors import JudgeoptError
 from judgeopt.files import refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
 
@@ -162,8 +167,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="one of the task's settings, e.g. commands.constant_force_share=0.4 (the scoop: share of "
                    "commands pressing at one near-constant force)")
     c.add_argument("--randomize", type=env_range, action="append", metavar="NAME=LO,HI",
-                   help="draw one of the scene's unobserved parameters (the task's perturbations, e.g. "
-                   "stiffness_factor=0.6,1.6 or y_obj_offset=-0.02,0.02; `judgeopt tasks --json` lists them) uniformly "
+                   help=f"draw one of the scene's unobserved parameters (the task's perturbations, e.g. "
+                   f"{example_perturbation()}; `judgeopt tasks --json` lists them) uniformly "
                    "per demonstration; the draws are recorded in the file (default: the nominal scene)")
     c.add_argument("--focus", metavar="JUDGE",
                    help="active collection: keep a demonstration only where this judge, reading its command, is unsure "
@@ -199,7 +204,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.set_defaults(func=cmd_render)
 
     d = sub.add_parser("plot-data", help="plot max velocity against max force coloured by label (paper Fig. 13)",
-                       parents=[out_option("FILE", "image to write (PNG, PDF or SVG by suffix)",
+                       parents=[out_option("IMAGE", "image to write (PNG, PDF or SVG by suffix)",
                                            default="velocity_force.png"), OVERWRITE])
     d.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
     d.set_defaults(func=cmd_plot_data)
@@ -232,33 +237,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def exit_code(exc: BaseException) -> ExitCode | None:
-    """The exit code of an error the user can act on; None for a bug (its traceback is shown)."""
-    from judgeopt.data.dataset import DatasetError
-    from judgeopt.data.importer import ImportError_
-    from judgeopt.files import OverwriteError
-    from judgeopt.judge.casadi_fn import CasadiBuildError
-    from judgeopt.judge.model import JudgeError
-    from judgeopt.planners.calibration import CalibrationError
-    from judgeopt.planners.problem import InfeasibleProblemError, ProblemError, ProblemFileError
-    from judgeopt.planners.store import GeneratorFileError
-    from judgeopt.planners.trust_region import TrustRegionError
-    from judgeopt.sim.robot import RobotDescriptionError
-    from judgeopt.tasks.base import EnvironmentRangeError, TaskError
-    from judgeopt.trajectory import PlanError
-
-    if isinstance(exc, CLIError):
-        return exc.code
-    if isinstance(exc, InfeasibleProblemError):
-        return ExitCode.INFEASIBLE
-    if isinstance(exc, OverwriteError):
-        return ExitCode.EXISTS
-    if isinstance(exc, (CasadiBuildError, RobotDescriptionError)):
-        return ExitCode.MISSING
-    if isinstance(exc, (DatasetError, ImportError_, JudgeError, PlanError, ProblemFileError, GeneratorFileError,
-                        CalibrationError, TrustRegionError)):
-        return ExitCode.BAD_INPUT  # a file that cannot be read or used
-    if isinstance(exc, (ProblemError, EnvironmentRangeError, TaskError)):
-        return ExitCode.USAGE  # a value given on the command line
+    """The exit code of an error the user can act on; None for a bug (its traceback is shown).
+    judgeopt's errors carry theirs (judgeopt.errors); of other libraries', only a missing extra."""
+    if isinstance(exc, JudgeoptError):
+        return ExitCode(exc.exit_code)
     if isinstance(exc, ModuleNotFoundError) and missing_extra(exc):
         return ExitCode.MISSING
     return None
@@ -273,6 +255,24 @@ def _log_to_stderr(quiet: bool) -> None:
         handler.judgeopt_cli = True
         log.addHandler(handler)
     log.setLevel(logging.WARNING if quiet else logging.INFO)
+
+
+@contextlib.contextmanager
+def _quiet_simulator(quiet: bool) -> Iterator[None]:
+    """Under --quiet, PyBullet's warnings from C (judgeopt.sim.quiet) are discarded, in worker processes
+    too (they inherit the environment variable); set for the command only, so in-process calls do not leak."""
+    from judgeopt.sim import QUIET_ENV
+
+    before = os.environ.get(QUIET_ENV)
+    if quiet:
+        os.environ[QUIET_ENV] = "1"
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(QUIET_ENV, None)
+        else:
+            os.environ[QUIET_ENV] = before
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -297,7 +297,8 @@ def main(argv: list[str] | None = None) -> int:
 
         set_threads(args.threads)
     try:
-        return int(args.func(args))
+        with _quiet_simulator(getattr(args, "quiet", False)):
+            return int(args.func(args))
     except KeyboardInterrupt:
         print_error(command, "interrupted (workers stopped; a collection resumes when rerun)", ExitCode.INTERRUPTED)
         return ExitCode.INTERRUPTED

@@ -33,6 +33,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from judgeopt.errors import BadInput
 from judgeopt.files import atomic_path
 from judgeopt.formats.header import check_header, header
 from judgeopt.tasks import DEFAULT_TASK
@@ -42,7 +43,7 @@ FORMAT = "judgeopt-demonstrations"
 VERSION = 1
 
 
-class DatasetError(ValueError):
+class DatasetError(BadInput, ValueError):
     """A dataset file that is missing, unreadable or not in the expected format."""
 
 
@@ -166,6 +167,9 @@ def load(path: str | Path) -> Dataset:
     path = Path(path)
     if not path.exists():
         raise DatasetError(f"{path}: no such file (make one with `judgeopt collect` or `judgeopt import-demos`)")
+    if path.is_dir():
+        raise DatasetError(f"{path} is a folder; give a dataset file (.h5, from `judgeopt collect` or `judgeopt "
+                           "import-demos`)")
     try:
         h = h5py.File(path, "r")
     except OSError as exc:

@@ -27,6 +27,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from judgeopt.errors import BadInput
 from judgeopt.tasks import Task
 
 #: the signed axis names a channel may lie along
@@ -37,7 +38,7 @@ DEFAULT_FRAME_ID = "base_link"
 QUATERNION_TOLERANCE = 1e-3
 
 
-class FrameError(ValueError):
+class FrameError(BadInput, ValueError):
     """A task frame that is malformed or does not fit the task; the message names the field."""
 
 

@@ -12,11 +12,12 @@ import json
 from pathlib import Path
 from typing import Any, Sequence
 
+from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header
 
 
-class ModelFileError(ValueError):
+class ModelFileError(BadInput, ValueError):
     """A model file that is missing, unreadable, corrupt or inconsistent with its metadata."""
 
 

@@ -14,11 +14,12 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
+from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.trajectory import Plan
 
 
-class TableError(ValueError):
+class TableError(BadInput, ValueError):
     """A CSV file that cannot be read as a table."""
 
 

@@ -59,6 +59,7 @@ import torch
 from torch import nn
 
 from judgeopt.cbuild import CompileError, compiled_library
+from judgeopt.errors import Missing
 from judgeopt.files import publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
@@ -102,7 +103,7 @@ def backends_for(config: JudgeConfig) -> tuple[str, ...]:
     return tuple(b for b in BACKENDS if config.spec.casadi_graph or b not in GRAPH_BACKENDS)
 
 
-class CasadiBuildError(JudgeError):
+class CasadiBuildError(Missing, JudgeError):
     """A backend that could not be built (compiler missing, l4casadi failure, ...)."""
 
 

@@ -25,8 +25,10 @@ from typing import Any, Iterable, Sequence
 
 import numpy as np
 
+from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
+from judgeopt.planners.base import PLANNER_OPTIONS, REGISTRY
 from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 
 FORMAT, VERSION = "judgeopt-calibration", 2
@@ -42,7 +44,7 @@ COVER_QUANTILE = 0.95
 MAX_POINTS = 3000
 
 
-class CalibrationError(ProblemError):
+class CalibrationError(BadInput, ProblemError):
     """A calibration file that is missing, malformed, from another format or for another judge."""
 
 
@@ -53,8 +55,9 @@ def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits:
     # the task is left out: the judge's hash already tells tasks apart (and ids fitted before tasks stay valid)
     skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
     skip |= set(LIMIT_NAMES) if over_limits else set()
-    skip |= set() if method == "direct" else {"objective", "p_target"}  # the direct solve's alone
-    skip |= set() if method == "receding" else {"replan_period", "replan_trigger"}
+    # the options only some planners read (the direct solve's target, the receding planner's period): its own
+    spec = REGISTRY.get(method)
+    skip |= set(PLANNER_OPTIONS) - set(spec.reads if spec is not None else ())
     p = {k: v for k, v in problem.to_dict().items() if k not in skip}
     blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
                       sort_keys=True, default=str)

@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
+from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
 from judgeopt.planners.problem import ProblemError
@@ -29,7 +30,7 @@ FORMAT = "judgeopt-trust-region"
 VERSION = 1
 
 
-class TrustRegionError(ProblemError):
+class TrustRegionError(BadInput, ProblemError):
     """A trust-region model file that is missing or malformed."""
 
 

@@ -17,10 +17,12 @@ import casadi as cs
 import numpy as np
 import pinocchio as pin
 
+from judgeopt.errors import BadInput
+
 _AXES = {"JointModelRX": (1.0, 0.0, 0.0), "JointModelRY": (0.0, 1.0, 0.0), "JointModelRZ": (0.0, 0.0, 1.0)}
 
 
-class UnsupportedModel(ValueError):
+class UnsupportedModel(BadInput, ValueError):
     """The model has a joint this module does not write out (only revolute joints are)."""
 
 

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from judgeopt.errors import Missing
 from judgeopt.files import atomic_write, cache_dir as default_cache_dir
 
 
@@ -35,7 +36,7 @@ UR5_WRIST_INERTIA = {
 WRIST_INERTIA_SOURCES = ("universal_robots", "example_robot_data")
 
 
-class RobotDescriptionError(RuntimeError):
+class RobotDescriptionError(Missing, RuntimeError):
     """The UR5 description could not be found in the installed example-robot-data."""
 
 

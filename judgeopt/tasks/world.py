@@ -3,7 +3,8 @@ the arm driver's sensor hook (`judgeopt.sim.arm.ArmDriver.sensor_model`)."""
 
 from __future__ import annotations
 
-from typing import Sequence
+from contextlib import contextmanager
+from typing import Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -37,3 +38,21 @@ def sensor_model(bias: float, noise: float, rotation: np.ndarray, seed: int | Se
     if bias == 0.0 and noise == 0.0:
         return None
     return SensorErrors(pressing_bias(bias, rotation), noise, seed)
+
+
+def world_sensor(world: Mapping[str, float], rotation: np.ndarray, seed: int | Sequence[int]) -> SensorErrors | None:
+    """The sensor errors of a perturbed world (its `sensor_bias` and `sensor_noise`, 0 if not
+    given) with the tool at `rotation` (TCP to world), or None where the sensor is exact."""
+    return sensor_model(world.get("sensor_bias", 0.0), world.get("sensor_noise", 0.0), rotation, seed)
+
+
+@contextmanager
+def sensor_errors(driver: Any, world: Mapping[str, float], rotation: np.ndarray,
+                  seed: int | Sequence[int]) -> Iterator[None]:
+    """The arm driver reads its force sensor with the world's errors while the block runs (a
+    rollout), and exactly again after it, even if the rollout raises."""
+    driver.sensor_model = world_sensor(world, rotation, seed)
+    try:
+        yield
+    finally:
+        driver.sensor_model = None

@@ -21,7 +21,7 @@ from judgeopt.sim.quiet import pb
 from judgeopt.tasks.base import Outcome
 from judgeopt.tasks.scoop.rollout import Simulator
 from judgeopt.tasks.scoop.spec import REAL_ROBOT_KP, REAL_ROBOT_KV
-from judgeopt.tasks.world import sensor_model
+from judgeopt.tasks.world import sensor_errors, world_sensor
 
 #: scenes with a scaled object kept per simulator (one is built per new size, ~0.3 s)
 KEEP_SIZES = 2
@@ -81,12 +81,8 @@ class WorldSimulator(Simulator):
             return self._scaled(size).simulate(plan, env, record)
         true = self.task.true_env(env, self.world)
         # the home pose holds the TCP level (rotation identity): the pressing force is the sensor's z
-        self.driver.sensor_model = sensor_model(self.world.get("sensor_bias", 0.0), self.world.get("sensor_noise", 0.0),
-                                                np.eye(3), self.seed)
-        try:
+        with sensor_errors(self.driver, self.world, np.eye(3), self.seed):
             return super().simulate(plan, true, record)
-        finally:
-            self.driver.sensor_model = None
 
     def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Any:
         """Start executing `plan`, made for `env` (the told environment), in the perturbed world,
@@ -94,8 +90,7 @@ class WorldSimulator(Simulator):
         size = self.world.get("size_factor")
         if size is not None:
             return self._scaled(size).execute(plan, env, record)
-        self.driver.sensor_model = sensor_model(self.world.get("sensor_bias", 0.0), self.world.get("sensor_noise", 0.0),
-                                                np.eye(3), self.seed)
+        self.driver.sensor_model = world_sensor(self.world, np.eye(3), self.seed)
         return super().execute(plan, self.task.true_env(env, self.world), record)
 
     def close(self) -> None:

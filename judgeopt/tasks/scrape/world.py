@@ -12,7 +12,7 @@ import numpy as np
 from judgeopt.sim.quiet import pb
 from judgeopt.tasks.base import Outcome
 from judgeopt.tasks.scrape.scene import ScrapeSimulator
-from judgeopt.tasks.world import sensor_model
+from judgeopt.tasks.world import sensor_errors, world_sensor
 
 #: the gains `kp_factor` scales: x, y and the rotation (z is force-controlled)
 SCALED_AXES = np.array([True, True, False, True, True, True])
@@ -43,17 +43,12 @@ class ScrapeWorldSimulator(ScrapeSimulator):
     def simulate(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Outcome:
         """Replay `plan`, made for `env` (the told environment), in the perturbed world."""
         true = self.task.true_env(env, self.world)
-        self.driver.sensor_model = sensor_model(self.world.get("sensor_bias", 0.0), self.world.get("sensor_noise", 0.0),
-                                                self.rotation, self.seed)
-        try:
+        with sensor_errors(self.driver, self.world, self.rotation, self.seed):
             return super().simulate(plan, true, record)
-        finally:
-            self.driver.sensor_model = None
 
     def execute(self, plan: Any, env: Mapping[str, float], record: int = 0) -> Any:
         """Start executing `plan`, made for `env` (the told environment), in the perturbed world,
         to be stepped; the sensor's bias and noise stay on until the next `simulate`."""
-        self.driver.sensor_model = sensor_model(self.world.get("sensor_bias", 0.0), self.world.get("sensor_noise", 0.0),
-                                                self.rotation, self.seed)
+        self.driver.sensor_model = world_sensor(self.world, self.rotation, self.seed)
         return self.start(plan, self.task.true_env(env, self.world), record)
 
