@@ -9,7 +9,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.common import OVERWRITE, CLIError, ExitCode, command_line, out_option
+from judgeopt.cli.common import OVERWRITE, CLIError, ExitCode, command_line, number, out_option
 from judgeopt.data.recording import ALIGN, FIT, ImportSpec
 from judgeopt.files import refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
@@ -20,75 +20,61 @@ SHOWN = 10
 
 
 def recordings(files: list[str], out: str, labels: str | None = None) -> list[Path]:
-    """The paths to import: files as given; a LeRobot dataset folder (meta/info.json) or a ROS 2
-    bag folder (metadata.yaml) as one path; any other folder as its .csv/.h5/.hdf5/.mcap files and
-    bag folders (not the output being written)."""
-    from judgeopt.data.importer import HDF5_SUFFIXES
-    from judgeopt.data.lerobot import is_lerobot
-    from judgeopt.data.ros2 import is_bag
+    """The paths to import: files as given; a folder a reader reads whole (a LeRobot dataset, a ROS 2
+    bag) as one path; any other folder as the recordings in it, by suffix or content (not the
+    output being written, nor the labels file)."""
+    from judgeopt.data.readers.registry import inputs, listed, reader_for
 
     paths: list[Path] = []
     for p in map(Path, files):
-        if p.is_dir() and not is_lerobot(p) and not is_bag(p):
-            skip = {Path(x).resolve() for x in (out, labels) if x}
-            paths += sorted(f for f in p.iterdir() if (f.suffix.lower() in (".csv", *HDF5_SUFFIXES) or is_bag(f))
-                            and f.resolve() not in skip)
+        if p.is_dir() and reader_for(p) is None:
+            paths += listed(p, skip=[x for x in (out, labels) if x])
         else:
             paths.append(p)
     if not paths:
-        raise CLIError(f"no .csv, .h5, .hdf5 or .mcap files, LeRobot dataset folders or ROS 2 bags in {files}",
-                       ExitCode.BAD_INPUT)
+        raise CLIError(f"no recordings in {files}: no {inputs()}", ExitCode.BAD_INPUT)
     return paths
 
 
-def import_spec(args: argparse.Namespace, paths: list[Path]) -> Any:
-    """The ImportSpec the flags describe, each flag checked against the inputs it applies to."""
-    from judgeopt.data.importer import HDF5_SUFFIXES, ImportError_, ImportSpec, parse_hdf5_keys
-    from judgeopt.data.lerobot import is_lerobot
+def import_spec(args: argparse.Namespace) -> Any:
+    """The ImportSpec the shared flags describe (what every reader takes)."""
     from judgeopt.data.labels import parse_assignments, read_labels
-    from judgeopt.data.recording import parse_keys
-    from judgeopt.data.ros2 import is_bag, parse_topics
+    from judgeopt.data.recording import ImportError_
     from judgeopt.tasks import get_task
 
     task = get_task(args.task)
-    hdf5 = any(p.suffix.lower() in HDF5_SUFFIXES for p in paths)
-    if args.filter_key and not hdf5:
-        raise CLIError("--filter-key selects demo groups of HDF5 files (mask/NAME); no .h5/.hdf5 file is given")
-    lerobot = any(is_lerobot(p) for p in paths)
-    if args.success_threshold is not None and not (hdf5 or lerobot):
-        raise CLIError("--success-threshold labels HDF5 rewards or LeRobot next.reward; a CSV file has its own "
-                       "label column")
-    if args.keys and not lerobot:
-        raise CLIError("--keys maps LeRobot columns; no LeRobot dataset folder (with meta/info.json) is given "
-                       "(HDF5 files: --hdf5-keys)")
-    if args.topics and not any(is_bag(p) for p in paths):
-        raise CLIError("--topics names the topics of ROS 2 bags; no bag (a folder with metadata.yaml, or a .mcap "
-                       "file) is given")
-    csv = any(p.suffix.lower() == ".csv" for p in paths)
-    if args.columns and not csv:
-        raise CLIError("--columns maps CSV header columns; no .csv file is given (HDF5: --hdf5-keys, LeRobot: --keys)")
-    if args.hdf5_keys and not hdf5:
-        raise CLIError("--hdf5-keys maps HDF5 datasets; no .h5/.hdf5 file is given (CSV: --columns)")
     env_names = tuple(n for n in args.env_names.split(",") if n) if args.env_names else task.env_names
     kinds = {"t": "t", **{c.name: c.kind for c in task.channels}}
     try:
         return ImportSpec(
             env_names, dt=args.dt, horizon=args.horizon, task=task.name,
-            hdf5_keys=parse_hdf5_keys(args.hdf5_keys, env_names, task.channel_names),
-            lerobot_keys=parse_keys(args.keys, env_names, task.channel_names, flag="--keys", scalars=("success",),
-                                    columns_everywhere=True),
-            ros_topics=parse_topics(args.topics, env_names,
-                                    [c.name for c in task.channels if c.kind in ("position", "force")]),
-            columns=parse_keys(args.columns, env_names, task.channel_names, flag="--columns",
-                               scalars=("label", "demo_id")),
             scale=parse_assignments(args.scale, "--scale", list(kinds), units=True, kinds=kinds),
             offset=parse_assignments(args.offset, "--offset", [c.name for c in task.channels_of("position")]),
             labels=read_labels(args.labels) if args.labels else None,
             env_values=parse_assignments(args.env, "--env", env_names),
             start=args.start, end=args.end, align=args.align, contact_force=args.contact_force, lead=args.lead,
-            fit="crop" if args.crop_to_horizon else args.fit, tare=args.tare,
-            streams=tuple(x.strip() for x in (args.streams or "").split(",") if x.strip()), filter_key=args.filter_key,
-            success_threshold=args.success_threshold)
+            fit="crop" if args.crop_to_horizon else args.fit, tare=args.tare)
+    except ImportError_ as exc:
+        raise CLIError(str(exc)) from None
+
+
+def reader_options(args: argparse.Namespace, paths: list[Path], spec: Any) -> dict[str, Any]:
+    """Each reader's options from its own flags (judgeopt.data.readers.registry), for the readers
+    of `paths`; a flag given where no input it applies to is, is refused naming the flags that do."""
+    from judgeopt.data.readers.registry import READERS, flags, inputs, reader_for
+    from judgeopt.data.recording import ImportError_
+
+    present = {r.name for r in map(reader_for, paths) if r is not None}
+    every = flags()
+    for spelling, (flag, readers) in every.items():
+        if getattr(args, flag.dest, None) is None or present & {r.name for r in readers}:
+            continue
+        instead = [s for s, (f, rs) in every.items() if flag.kind and f.kind == flag.kind
+                   and present & {r.name for r in rs}]
+        raise CLIError(f"{spelling} {flag.does}; no {inputs(readers)} is given"
+                       + (f" (for the inputs given: {', '.join(instead)})" if instead else ""))
+    try:
+        return {name: r.configure(vars(args), spec) for name, r in READERS.items() if name in present}
     except ImportError_ as exc:
         raise CLIError(str(exc)) from None
 
@@ -99,7 +85,10 @@ def cmd_import_demos(args: argparse.Namespace) -> int:
 
     paths = recordings(args.files, args.out, args.labels)
     refuse_overwrite([args.out], args.overwrite)
-    ds, errors = import_demos(paths, import_spec(args, paths))
+    spec = import_spec(args)
+    ds, errors = import_demos(paths, spec, reader_options(args, paths, spec))
+    if ds is None and len(errors) == 1:  # one bad input: its reason is the one line
+        raise CLIError(f"nothing imported: {errors[0]}", ExitCode.BAD_INPUT)
     for e in errors[:SHOWN]:
         print(f"judgeopt import-demos: skipped: {e}", file=sys.stderr)
     for fix, n in Counter(e.rpartition("; ")[2] for e in errors[SHOWN:]).most_common():
@@ -137,31 +126,7 @@ def add_import_flags(m: argparse.ArgumentParser) -> None:
     m.add_argument("--task", default=DEFAULT_TASK, help="whose channels the recordings hold (the scoop's: y [m], "
                    "ydot [m/s], f [N]; `judgeopt tasks` lists them)")
     m.add_argument("--env-names", metavar="A,B", help="environment values, comma-separated (default: the task's, "
-                   "the scoop's y_obj,mu)")
-    m.add_argument("--hdf5-keys", metavar="NAME=PATH[:COL],...",
-                   help="where an HDF5 file keeps t, a channel (the scoop's y, ydot, f), success, dt or an environment "
-                   "value, e.g. 'y=obs/robot0_eef_pos:1,f=obs/ft:2,mu=friction' (:COL picks a column of a (T, k) "
-                   "array; default: the names themselves, then under obs/)")
-    m.add_argument("--keys", metavar="NAME=COLUMN[:INDEX],...",
-                   help="where a LeRobot dataset keeps t, a channel, success or an environment value, e.g. "
-                   "'y=observation.state:1,f=observation.force:2,success=next.success' (:INDEX picks one element of a "
-                   "vector column; default: t from timestamp, success from next.success/next.reward/next.done, "
-                   "the rest from columns of their own name)")
-    m.add_argument("--topics", metavar="NAME=TOPIC[:AXIS],...",
-                   help="which topics of a ROS 2 bag hold a channel (NAME=TOPIC:AXIS, AXIS x, y or z: a position of "
-                   "a geometry_msgs/msg/PoseStamped, a force of a WrenchStamped), the start of each episode "
-                   "(episode=TOPIC, std_msgs Int32 or String; default: one bag, one demonstration), the label "
-                   "(label=TOPIC, std_msgs "
-                   "Bool or String) or an environment value (NAME=TOPIC, std_msgs Float64), e.g. "
-                   "'y=/tool/pose:y,f=/ft/wrench:z,episode=/episode'")
-    m.add_argument("--filter-key", metavar="NAME", help="HDF5: import only the demo groups robomimic's filter key "
-                   "mask/NAME lists, e.g. train or valid (default: every demo group)")
-    m.add_argument("--success-threshold", type=float, metavar="X", help="label dense rewards: success when the "
-                   "largest reward of a demonstration (HDF5 'rewards', LeRobot next.reward) is >= X, in the reward's "
-                   "own units (default: none; the last value of the success flag, 1 or 0)")
-    m.add_argument("--columns", metavar="NAME=COLUMN,...", help="where a CSV file keeps t, a channel (the scoop's "
-                   "y, ydot, f), label, demo_id or an environment value, e.g. 't=time,y=tool_y_m,f=fz_N' (default: "
-                   "columns of those names). A channel whose cells are empty on some rows was recorded at its own rate")
+                   "`judgeopt tasks` lists them)")
     m.add_argument("--scale", metavar="NAME=FACTOR|UNIT,...", help="convert as read: a factor or the unit recorded, "
                    "signed, e.g. 'f=-1' (a sensor whose z axis points into the tool), 'y=mm', 'f=-N', 't=ms' (default: SI "
                    "units, pressing positive)")
@@ -171,33 +136,44 @@ def add_import_flags(m: argparse.ArgumentParser) -> None:
                    "recording column (file, name, demo_id, ...) and an outcome column (success, label, ...), e.g. "
                    "'file,success' then 'demo_0001.csv,1' (default: none; labels from the recordings)")
     m.add_argument("--env", action="append", metavar="NAME=VALUE", help="an environment value the recordings do not "
-                   "carry, the same for all (e.g. --env y_obj=0.246; repeat or comma-separate for several; default: none, "
+                   "carry, the same for all (e.g. --env NAME=0.246; repeat or comma-separate for several; default: none, "
                    "read from the recordings)")
-    m.add_argument("--streams", metavar="A,B", help="a recording kept as one CSV per stream, NAME_A.csv and "
-                   "NAME_B.csv (e.g. --streams mocap,ft: demo_01_mocap.csv with t,y and demo_01_ft.csv with t,f), "
-                   "merged on time (default: one file per recording)")
     m.add_argument("--tare", action="store_true", help="subtract each force's mean over the rest before the motion "
                    "(a force sensor's bias); needs at least 0.05 s at rest before the motion")
     w = m.add_argument_group("which part of a recording is kept (then resampled to dt over N·dt)")
-    w.add_argument("--start", type=float, default=0.0, metavar="S",
+    w.add_argument("--start", type=number, default=0.0, metavar="S",
                    help="crop: drop what comes before S seconds after the first time stamp")
-    w.add_argument("--end", type=float, metavar="S", help="crop: drop what comes after S seconds after the first "
+    w.add_argument("--end", type=number, metavar="S", help="crop: drop what comes after S seconds after the first "
                    "time stamp (default: keep to the end)")
     w.add_argument("--align", choices=ALIGN, default=ImportSpec.align,
                    help="start: keep from --start; contact: from --lead s before the force first exceeds "
                    "--contact-force; onset: from --lead s before the position first leaves rest (each recording its "
                    "own)")
-    w.add_argument("--contact-force", type=float, default=ImportSpec.contact_force, metavar="N",
+    w.add_argument("--contact-force", type=number, default=ImportSpec.contact_force, metavar="N",
                    help="force magnitude in N that marks contact onset, for --align contact")
-    w.add_argument("--lead", "--pre-contact", dest="lead", type=float, default=ImportSpec.lead, metavar="S",
+    w.add_argument("--lead", "--pre-contact", dest="lead", type=number, default=ImportSpec.lead, metavar="S",
                    help="seconds kept before contact or motion onset (clipped at --start); also after the motion's "
                    "end for --fit resample")
     w.add_argument("--fit", choices=FIT, default=ImportSpec.fit, help="a window longer than N·dt: refuse it (naming "
                    "its duration); crop: keep its first N·dt s, refused when the motion ends later (its label would "
                    "belong to what was cut); resample: every motion, onset to end, stretched onto N·dt")
     w.add_argument("--crop-to-horizon", action="store_true", help="the same as --fit crop")
-    m.add_argument("--dt", type=float, default=DEFAULT_DT, metavar="S", help="planner sample period in s")
+    m.add_argument("--dt", type=number, default=DEFAULT_DT, metavar="S", help="planner sample period in s")
     m.add_argument("--horizon", type=int, default=DEFAULT_HORIZON, metavar="N", help="planner steps N")
+    add_reader_flags(m)
+
+
+def add_reader_flags(m: argparse.ArgumentParser) -> None:
+    """Each reader's own flags (judgeopt.data.readers.registry), grouped by the formats that take them."""
+    from judgeopt.data.readers.registry import flags
+
+    groups: dict[str, Any] = {}
+    shared_last = sorted(flags().items(), key=lambda item: len(item[1][1]) > 1)
+    for spelling, (flag, readers) in shared_last:
+        title = " and ".join(r.title for r in readers)
+        if title not in groups:
+            groups[title] = m.add_argument_group(f"options of {title}")
+        groups[title].add_argument(spelling, dest=flag.dest, metavar=flag.metavar, type=flag.type, help=flag.help)
 
 
 def add_recording_commands(sub: Any) -> None:

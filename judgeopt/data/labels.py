@@ -1,5 +1,5 @@
 """What a lab keeps beside its recordings: a labels file (`--labels labels.csv`), constant
-environment values (`--env y_obj=0.246`) and unit/sign conversions (`--scale f=-1`, `y=mm`).
+environment values (`--env NAME=0.246`) and unit/sign conversions (`--scale f=-1`, `y=mm`).
 
 Why a module of its own: every reader (CSV, HDF5, LeRobot, ROS 2 bags) takes them the same way.
 """
@@ -7,6 +7,7 @@ Why a module of its own: every reader (CSV, HDF5, LeRobot, ROS 2 bags) takes the
 from __future__ import annotations
 
 import csv
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -104,6 +105,8 @@ def parse_assignments(items: Sequence[str] | str | None, flag: str, allowed: Seq
         except ValueError:
             known = f" or a unit ({', '.join(UNITS)})" if units else ""
             raise ImportError_(f"{flag}: {name}={value!r}: not a number{known}") from None
+        if not math.isfinite(out[name]):
+            raise ImportError_(f"{flag}: {name}={value}: not a finite number; give a value such as {name}=1.5")
         if units and out[name] == 0:
             raise ImportError_(f"{flag}: {name}=0 would erase the channel; a scale is a non-zero factor")
     return out

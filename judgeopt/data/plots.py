@@ -3,25 +3,40 @@
 
 from __future__ import annotations
 
+import numpy as np
 from matplotlib.figure import Figure
 
 from judgeopt.data.dataset import Dataset
+from judgeopt.tasks import TaskError, get_task
+
+
+def panels(ds: Dataset) -> list[tuple[str, np.ndarray]]:
+    """The demonstrations split by the variable the dataset's task names (`Task.demo_panels`), one
+    (label, mask) per interval between its edges; none where the task names none, the data lacks
+    it, or the task is not installed here."""
+    try:
+        split = get_task(ds.task).demo_panels
+    except TaskError:
+        return []
+    if split is None or split[0] not in ds.env_names:
+        return []
+    name, inner = split
+    x = ds.env[:, list(ds.env_names).index(name)]
+    edges = [-float("inf"), *inner, float("inf")]
+    labels = ([f"{name} < {inner[0]:g}"] + [f"{lo:g} <= {name} < {hi:g}" for lo, hi in zip(inner, inner[1:])]
+              + [f"{name} >= {inner[-1]:g}"])
+    return [(label, (x >= lo) & (x < hi)) for label, lo, hi in zip(labels, edges, edges[1:])]
 
 
 def plot_velocity_force(ds: Dataset, title: str = "") -> Figure:
     """Max commanded velocity against max commanded force, coloured by outcome (paper Fig. 13),
-    one panel per mu tercile so the friction's effect shows."""
+    beside one panel per interval of the variable the task splits its demonstrations by
+    (`panels`: the scoop's friction), so that variable's effect shows."""
     vmax = ds.commands[:, :, 1].max(axis=1)
     fmax = ds.commands[:, :, 2].max(axis=1)
-    mu = ds.env[:, list(ds.env_names).index("mu")] if "mu" in ds.env_names else None
-    edges = [-float("inf"), 1.5, 2.5, float("inf")] if mu is not None else [None]
-    panels = len(edges) - 1 if mu is not None else 1
-    fig = Figure(figsize=(4.2 * (panels + 1), 4))
-    axes = fig.subplots(1, panels + 1, sharex=True, sharey=True, squeeze=False)[0]
-    groups = [("all", slice(None))]
-    if mu is not None:
-        names = ["mu < 1.5", "1.5 <= mu < 2.5", "mu >= 2.5"]
-        groups += [(names[k], (mu >= edges[k]) & (mu < edges[k + 1])) for k in range(panels)]
+    groups: list[tuple[str, np.ndarray | slice]] = [("all", slice(None)), *panels(ds)]
+    fig = Figure(figsize=(4.2 * len(groups), 4))
+    axes = fig.subplots(1, len(groups), sharex=True, sharey=True, squeeze=False)[0]
     for ax, (name, m) in zip(axes, groups):
         lab = ds.labels[m]
         ax.scatter(vmax[m][lab == 0], fmax[m][lab == 0], s=4, c="tab:red", alpha=0.35, label="failure")

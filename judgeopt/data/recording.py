@@ -1,8 +1,8 @@
 """One recorded demonstration, whatever file it came from: checked, cropped and resampled.
 
-Every reader (CSV and robomimic-style HDF5 in `judgeopt.data.importer`, LeRobot in
-`judgeopt.data.lerobot`) turns its file into `RawDemo`s and hands them to `check`, so every
-format is held to the same rules, windows and messages (see the importer's module docstring).
+Every reader (`judgeopt.data.readers`: CSV, robomimic-style HDF5, LeRobot, ROS 2 bags) turns its
+input into `RawDemo`s and hands them to `check`, so every format is held to the same rules, windows
+and messages (see the importer's module docstring).
 """
 
 from __future__ import annotations
@@ -15,6 +15,7 @@ from typing import Any, Callable, Mapping, Sequence
 import numpy as np
 
 from judgeopt.data.signals import Smoothed, motion_span, motion_step, smooth
+from judgeopt.errors import BadInput
 from judgeopt.tasks import DEFAULT_TASK, get_task
 from judgeopt.trajectory import CHANNELS, DEFAULT_DT, DEFAULT_HORIZON, Channel
 
@@ -25,17 +26,19 @@ ALIGN = ("start", "contact", "onset")
 FIT = ("refuse", "crop", "resample")
 
 
-class ImportError_(ValueError):
+class ImportError_(BadInput, ValueError):
     """A demonstration file that cannot be imported; the message names the file and the place in it."""
 
 
 @dataclass(frozen=True)
 class ImportSpec:
+    """What every reader shares: the task and environment names, the planner's grid, which part of
+    a recording is kept, conversions, and labels and environment values given by hand. A format's
+    own options (a key map, a filter) are its reader's (`judgeopt.data.readers`)."""
+
     env_names: tuple[str, ...]
     dt: float = DEFAULT_DT
     horizon: int = DEFAULT_HORIZON
-    #: HDF5 name -> "PATH" or "PATH:COLUMN" (see the importer's docstring); unmapped names use their defaults
-    hdf5_keys: Mapping[str, str] = field(default_factory=dict)
     #: whose channels the recordings hold (positions and forces required, velocities optional)
     task: str = DEFAULT_TASK
     #: crop window in s from the recording's first time stamp (None: to its end)
@@ -49,27 +52,15 @@ class ImportSpec:
     #: a window longer than N·dt: "refuse" it; "crop" its first N·dt s (refused when the motion ends later:
     #: the label would belong to a part cut off); "resample" onset-to-end (plus `lead` each side) onto N·dt
     fit: str = "refuse"
-    #: HDF5: import only the demo groups listed in mask/<filter_key> (robomimic's filter keys)
-    filter_key: str | None = None
-    #: dense rewards: label 1 when the recording's largest reward is >= this
-    success_threshold: float | None = None
-    #: LeRobot name -> "COLUMN" or "COLUMN:INDEX" (`--keys`)
-    lerobot_keys: Mapping[str, str] = field(default_factory=dict)
-    #: ROS 2 bag name -> "TOPIC:AXIS" (channels) or "TOPIC" (episode, label, environment) (`--topics`)
-    ros_topics: Mapping[str, str] = field(default_factory=dict)
-    #: CSV name -> header column (`--columns t=time,y=tool_y_m,f=fz_N`)
-    columns: Mapping[str, str] = field(default_factory=dict)
     #: name -> factor applied as read (`--scale f=-1,y=mm`), then name -> offset added (`--offset y=-1.2`)
     scale: Mapping[str, float] = field(default_factory=dict)
     offset: Mapping[str, float] = field(default_factory=dict)
     #: a labels file (`judgeopt.data.labels.LabelFile`): labels for recordings that carry none
     labels: Any = None
-    #: environment values for recordings that do not carry them (`--env y_obj=0.246`)
+    #: environment values for recordings that do not carry them (`--env NAME=0.246`)
     env_values: Mapping[str, float] = field(default_factory=dict)
     #: subtract each force channel's mean over the rest before the motion (a force sensor's bias)
     tare: bool = False
-    #: a recording kept as one CSV file per stream, NAME_<stream>.csv (`--streams mocap,ft`), merged on time
-    streams: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         if self.align not in ALIGN:
@@ -96,18 +87,8 @@ class ImportSpec:
         return tuple(c.name for c in self.channels if c.kind in kinds)
 
     @property
-    def required(self) -> tuple[str, ...]:
-        """CSV columns every file must have (before --columns renames them)."""
-        return ("t", *self.names("position", "force"), *(() if self.labels is not None else ("label",)),
-                *(n for n in self.env_names if n not in self.env_values))
-
-    @property
     def limits(self) -> dict[str, float]:
         return {c.name: LIMITS[c.kind] for c in self.channels}
-
-    def column(self, name: str) -> str:
-        """The CSV header a name is read from."""
-        return self.columns.get(name, name)
 
 
 @dataclass
@@ -137,7 +118,7 @@ class RawDemo:
 
 
 # -- key maps (--hdf5-keys, --keys) -----------------------------------------------------------------
-_KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:,]+?)\s*(?::\s*(-?\d+)\s*)?$")
+_KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:,]+?)\s*(?::\s*(-?\d{1,9})\s*)?$")
 
 
 def parse_keys(text: str | None, env_names: Sequence[str] = (), channels: Sequence[str] = CHANNELS,
@@ -158,11 +139,26 @@ def parse_keys(text: str | None, env_names: Sequence[str] = (), channels: Sequen
             raise ImportError_(f"{flag}: unknown name {name!r}; map one of {list(allowed)}")
         if name in out:
             raise ImportError_(f"{flag}: {name!r} is mapped twice")
+        path = re.sub(r"^[\s/]+|[\s/]+$", "", path)  # "/obs/ft/" and "obs/ft" are one path
+        if not path:
+            raise ImportError_(f"{flag}: {item!r} names no PATH")
         if column is not None and name not in per_step and not columns_everywhere:
             raise ImportError_(f"{flag}: a column selector is only for per-step arrays ({', '.join(per_step)}), "
                                f"not {name!r}")
-        out[name] = path.strip("/") + (f":{int(column)}" if column is not None else "")
+        out[name] = path + (f":{int(column)}" if column is not None else "")
     return out
+
+
+def env_fix(spec: ImportSpec, missing: Sequence[str], mapping: str) -> str:
+    """The fixes for environment values a recording lacks, likeliest first: leave them out
+    (`--env-names` with the rest, when some are left), give them by hand (`--env`), or say where
+    the recording keeps them (`mapping`, the reader's own flag). No "; " in it: the command groups
+    skipped recordings by what follows the last one."""
+    them = "it" if len(missing) == 1 else "them"
+    kept = [n for n in spec.env_names if n not in missing]
+    fixes = [f"leave {them} out with --env-names {','.join(kept)}"] if kept else []
+    fixes.append(f"give {them} with --env {','.join(f'{n}=VALUE' for n in missing)}")
+    return f"{', '.join(fixes)} or {mapping}"
 
 
 def split_key(ref: str) -> tuple[str, int | None]:

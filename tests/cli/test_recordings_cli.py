@@ -55,7 +55,8 @@ def test_export_then_import_from_the_command_line(tmp_path, capsys):
     (["--filter-key", "train"], "--filter-key selects demo groups of HDF5 files"),
     (["--keys", "y=observation.state:1"], "--keys maps LeRobot columns"),
     (["--start", "1", "--end", "0.5"], "--end 0.5 s must be after --start 1 s"),
-    (["--success-threshold", "0.5"], "--success-threshold labels HDF5 rewards or LeRobot next.reward"),
+    (["--success-threshold", "0.5"], "--success-threshold labels dense rewards; no LeRobot dataset folder (with "
+                                     "meta/info.json) or .h5/.hdf5 file is given"),
 ])
 def test_flags_that_cannot_apply_are_one_line_usage_errors(tmp_path, capsys, args, message):
     assert main(["import-demos", str(EXAMPLE_CSV), "--out", str(tmp_path / "d.h5"), *args]) == 2
@@ -88,3 +89,31 @@ def test_a_long_recording_names_the_flags_and_crop_to_horizon_takes_it(tmp_path,
     err = capsys.readouterr().err
     assert "the motion ends 3 s after the first time stamp, after the 1.5 s kept from 0.91 s" in err
     assert "--horizon N with N·dt >= 2.19 s" in err and "--fit resample" in err
+
+
+def test_an_environment_value_the_files_lack_names_env_names_first(tmp_path, capsys):
+    """--env gives one value by hand, the files carry no environment column: the fix for the value
+    left is to drop it (--env-names with the rest), not to map a column that is not there."""
+    path = tmp_path / "a.csv"
+    path.write_text("t,y,f,label\n" + "".join(f"{k / 20},{k / 200},5,success\n" for k in range(21)))
+    out = tmp_path / "d.h5"
+    assert main(["import-demos", str(path), "--env", "y_obj=0.246", "--out", str(out)]) == 5
+    err = capsys.readouterr().err
+    assert f"{path}: missing column(s) ['mu']; the header has ['t', 'y', 'f', 'label']; leave it out with " \
+           "--env-names y_obj, give it with --env mu=VALUE or map a column with --columns mu=COLUMN" in err
+    assert main(["import-demos", str(path), "--env", "y_obj=0.246", "--env-names", "y_obj", "--out", str(out)]) == 0
+    assert load(out).env.tolist() == [[0.246]]
+
+
+def test_every_readers_flags_are_the_commands(tmp_path):
+    """The command's per-format flags come from the readers' registry, each under its format."""
+    from judgeopt.data.readers.registry import flags
+
+    parser = _command("import-demos")
+    groups = {a.option_strings[0]: g.title for g in parser._action_groups for a in g._group_actions
+              if a.option_strings}
+    for spelling, (flag, readers) in flags().items():
+        assert spelling in groups and all(r.title in groups[spelling] for r in readers), spelling
+    for spelling in ("--columns", "--streams", "--hdf5-keys", "--filter-key", "--keys", "--topics",
+                     "--success-threshold"):  # users' commands keep their spelling
+        assert spelling in groups

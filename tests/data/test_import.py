@@ -82,7 +82,8 @@ import shutil
 
 import h5py
 
-from judgeopt.data.importer import ImportError_, import_demos, parse_hdf5_keys
+from judgeopt.data.importer import ImportError_, import_demos
+from judgeopt.data.readers.hdf5 import Hdf5Options, parse_hdf5_keys
 
 EXAMPLE_CSV = ROOT / "data" / "example_demos.csv"
 EXAMPLE_H5 = ROOT / "data" / "example_demos_robomimic.hdf5"
@@ -136,15 +137,15 @@ def test_hdf5_keys_map_other_names_and_columns(tmp_path):
                            "success=task_ok,"
                            "y_obj=object_y,mu=friction", SPEC.env_names)
     assert keys["y"] == "obs/robot0_eef_pos:1" and keys["mu"] == "friction"
-    ds, errors = import_demos([path], ImportSpec(SPEC.env_names, hdf5_keys=keys))
+    ds, errors = import_demos([path], SPEC, {"hdf5": Hdf5Options(keys)})
     assert errors == []
     _same(ref, ds)
     # without the column selector: told to pick one
-    ds, errors = import_demos([path], ImportSpec(SPEC.env_names, hdf5_keys={**keys, "y": "obs/robot0_eef_pos"}))
+    ds, errors = import_demos([path], SPEC, {"hdf5": Hdf5Options({**keys, "y": "obs/robot0_eef_pos"})})
     assert ds is None and len(errors) == 3
     assert "demo group 'data/demo_0', field 'y'" in errors[0] and "shape (151, 3)" in errors[0]
     assert "y=obs/robot0_eef_pos:COLUMN" in errors[0]
-    _, errors = import_demos([path], ImportSpec(SPEC.env_names, hdf5_keys={**keys, "y": "obs/robot0_eef_pos:3"}))
+    _, errors = import_demos([path], SPEC, {"hdf5": Hdf5Options({**keys, "y": "obs/robot0_eef_pos:3"})})
     assert "column 3 is out of range" in errors[0]
 
 

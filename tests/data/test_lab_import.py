@@ -14,6 +14,7 @@ from judgeopt.cli import main
 from judgeopt.data.dataset import load
 from judgeopt.data.importer import ImportSpec, import_demos, report
 from judgeopt.data.labels import LabelFile, parse_assignments, read_labels
+from judgeopt.data.readers.csv import CsvOptions
 from judgeopt.data.recording import ImportError_
 
 EPOCH = 1.7e9  # absolute UNIX seconds
@@ -61,11 +62,13 @@ def _folder(tmp_path: Path, durations=(0.9, 1.3), idles=(0.5, 1.2), **kw) -> tup
 
 
 def _spec(labels: Path | LabelFile, **kw) -> ImportSpec:
-    """What a user passes for the files `_lab_file` writes."""
+    """What a user passes for the files `_lab_file` writes (with `CSV`, the reader's options)."""
     labels = read_labels(labels) if isinstance(labels, Path) else labels
-    base = dict(columns=COLUMNS, scale={"f": -1.0}, labels=labels, env_values={"y_obj": Q1},
-                align="onset", tare=True, fit="crop")
+    base = dict(scale={"f": -1.0}, labels=labels, env_values={"y_obj": Q1}, align="onset", tare=True, fit="crop")
     return ImportSpec(("y_obj",), **{**base, **kw})
+
+
+CSV = {"csv": CsvOptions(COLUMNS)}
 
 
 def _start_on_window_clock(x: np.ndarray, tk: np.ndarray, duration: float) -> float:
@@ -77,7 +80,7 @@ def _start_on_window_clock(x: np.ndarray, tk: np.ndarray, duration: float) -> fl
 
 def test_a_lab_folder_imports_with_one_spec_and_matches_the_motion_written(tmp_path):
     files, labels = _folder(tmp_path)
-    ds, errors = import_demos(files, _spec(labels))
+    ds, errors = import_demos(files, _spec(labels), CSV)
     assert errors == [] and ds.n == 2
     assert ds.labels.tolist() == [0, 1] and ds.env.ravel().tolist() == [Q1, Q1]
     tk = np.arange(31) * 0.05
@@ -104,30 +107,30 @@ def test_a_lab_folder_imports_with_one_spec_and_matches_the_motion_written(tmp_p
 
 def test_a_flipped_force_is_refused_with_the_fix_and_a_right_one_is_not(tmp_path):
     files, labels = _folder(tmp_path)
-    ds, errors = import_demos(files, _spec(labels, scale={}))
+    ds, errors = import_demos(files, _spec(labels, scale={}), CSV)
     assert ds is None and len(errors) == 2
     assert errors[0].startswith(f"{files[0]}: demonstration 'demo_0000': force 'f' runs from -8")
     assert errors[0].endswith("negative while pressing, and pressing is positive in the scoop task; pass --scale f=-1")
     right = _lab_file(tmp_path / "right.csv", 0.5, 1.0, np.random.default_rng(1), sign=1.0, bias=0.0)
-    ds, errors = import_demos([right], _spec(LabelFile("l", {"right": 1}), scale={}))
+    ds, errors = import_demos([right], _spec(LabelFile("l", {"right": 1}), scale={}), CSV)
     assert errors == [] and ds.n == 1
 
 
 def test_millimetres_are_refused_with_the_unit_to_pass_and_imported_with_it(tmp_path):
     path = _lab_file(tmp_path / "mm.csv", 0.5, 1.0, np.random.default_rng(2), unit=1000.0)
     labels = LabelFile("l", {"mm.csv": 1})
-    _, errors = import_demos([path], _spec(labels))
+    _, errors = import_demos([path], _spec(labels), CSV)
     assert "column 'tool_y_m'" in errors[0] and "expected SI units (m, m/s, N); in mm? pass --scale y=mm" in errors[0]
     ds, errors = import_demos([path], _spec(labels, scale=parse_assignments("f=-N,y=mm", "--scale", ["t", "y", "f"],
                                                                           units=True, kinds={"y": "position",
-                                                                                             "f": "force"})))
+                                                                                             "f": "force"})), CSV)
     assert errors == [] and abs(ds.responses[0, -1, 0] - Q1) < 0.002
 
 
 def test_the_labels_file_must_name_every_recording_and_only_those(tmp_path):
     files, labels = _folder(tmp_path, durations=(0.9, 1.0, 1.1), idles=(0.5, 0.5, 0.5))
     labels.write_text("file,success\ndemo_0000.csv,1\ndemo_0001,failure\ndemo_0009.csv,1\n")
-    ds, errors = import_demos(files, _spec(labels))
+    ds, errors = import_demos(files, _spec(labels), CSV)
     assert ds.labels.tolist() == [1, 0]  # by file name or by stem
     assert errors == [
         f"{files[2]}: demonstration 'demo_0002' is not in the labels file {labels}; add a row 'demo_0002.csv,success' "
@@ -157,16 +160,16 @@ def test_bad_scales_are_refused(text, message):
 
 def test_a_rate_too_low_for_the_planner_is_refused_with_the_dt_that_would_do(tmp_path):
     path = _lab_file(tmp_path / "slow.csv", 0.5, 1.0, np.random.default_rng(3), mocap_hz=8.0)
-    _, errors = import_demos([path], _spec(LabelFile("l", {"slow": 1})))
+    _, errors = import_demos([path], _spec(LabelFile("l", {"slow": 1})), CSV)
     assert "column 'tool_y_m': 'y' is sampled every 0.125 s (8 Hz), less than half the planner's rate" in errors[0]
     assert "--dt 0.0625" in errors[0]
 
 
 def test_resample_stretches_each_motion_onto_the_horizon(tmp_path):
     files, labels = _folder(tmp_path, durations=(0.9, 2.2), idles=(0.5, 0.8))
-    _, errors = import_demos(files, _spec(labels))  # --fit crop: the 2.2 s motion does not fit 1.5 s
+    _, errors = import_demos(files, _spec(labels), CSV)  # --fit crop: the 2.2 s motion does not fit 1.5 s
     assert len(errors) == 1 and "the motion ends" in errors[0] and "--fit resample" in errors[0]
-    ds, errors = import_demos(files, _spec(labels, fit="resample"))
+    ds, errors = import_demos(files, _spec(labels, fit="resample"), CSV)
     assert errors == []
     scale = np.array(ds.meta["import"]["time_scale"])
     kept = np.array(ds.meta["import"]["kept"])
@@ -204,7 +207,7 @@ def test_streams_in_separate_files_merge_on_time(tmp_path):
     one = tmp_path / "one"
     one.mkdir()
     _lab_file(one / "demo_0007.csv", 0.5, 1.0, np.random.default_rng(4))
-    ref, errors = import_demos([one / "demo_0007.csv"], _spec(LabelFile("l", {"demo_0007": 1})))
+    ref, errors = import_demos([one / "demo_0007.csv"], _spec(LabelFile("l", {"demo_0007": 1})), CSV)
     assert errors == []
     header, *rows = (one / "demo_0007.csv").read_text().splitlines()
     mocap = [r.rsplit(",", 1)[0] for r in rows if r.split(",")[1]]
@@ -213,6 +216,7 @@ def test_streams_in_separate_files_merge_on_time(tmp_path):
     (tmp_path / "demo_0007_ft.csv").write_text("time,fz_N\n" + "\n".join(ft) + "\n")
     (tmp_path / "demo_0008_mocap.csv").write_text("time,tool_y_m\n1,0\n2,0\n")
     files = sorted(tmp_path.glob("*.csv"))
-    ds, errors = import_demos(files, _spec(LabelFile("l", {"demo_0007": 1, "demo_0008": 0}), streams=("mocap", "ft")))
+    ds, errors = import_demos(files, _spec(LabelFile("l", {"demo_0007": 1, "demo_0008": 0})),
+                              {"csv": CsvOptions(COLUMNS, streams=("mocap", "ft"))})
     np.testing.assert_array_equal(ds.responses, ref.responses)  # the same as one file with both streams
     assert errors == [f"{tmp_path / 'demo_0008'}: no demo_0008_ft.csv beside demo_0008_mocap.csv (--streams mocap,ft)"]

@@ -15,6 +15,7 @@ pq = pytest.importorskip("pyarrow.parquet")
 from judgeopt.cli import main  # noqa: E402
 from judgeopt.data.dataset import load  # noqa: E402
 from judgeopt.data.importer import ImportSpec, import_demos  # noqa: E402
+from judgeopt.data.readers.lerobot import LeRobotOptions, parse_lerobot_keys  # noqa: E402
 from judgeopt.data.recording import ImportError_, parse_keys  # noqa: E402
 
 FPS = 20
@@ -92,14 +93,15 @@ def write_dataset(root: Path, version: str = "v3.0", bad_episode: int | None = 2
     return root
 
 
-def _spec(keys: str = KEYS, **kw) -> ImportSpec:
-    return ImportSpec(("y_obj", "mu"), lerobot_keys=parse_keys(keys, ("y_obj", "mu"), ("y", "ydot", "f"), flag="--keys",
-                                                               scalars=("success",), columns_everywhere=True), **kw)
+def _import(paths: list[Path], keys: str = KEYS, success_threshold: float | None = None, **kw):
+    spec = ImportSpec(("y_obj", "mu"), **kw)
+    options = LeRobotOptions(parse_lerobot_keys(keys, spec), success_threshold)
+    return import_demos(paths, spec, {"lerobot": options})
 
 
 def test_episodes_values_labels_and_the_bad_episode(tmp_path):
     root = write_dataset(tmp_path / "scoops")
-    ds, errors = import_demos([root], _spec())
+    ds, errors = _import([root])
     assert ds.meta["demo_ids"] == ["scoops:episode_0", "scoops:episode_1", "scoops:episode_3"]
     assert ds.labels.tolist() == [1, 0, 0]  # next.success's last value
     np.testing.assert_allclose(ds.env, [[0.2, 0.4], [0.2, 0.5], [0.2, 0.7]], atol=1e-6)  # y_obj from info.json
@@ -117,18 +119,18 @@ def test_episodes_values_labels_and_the_bad_episode(tmp_path):
 
 def test_labels_from_rewards_and_done_flags(tmp_path):
     root = write_dataset(tmp_path / "d", bad_episode=None)
-    ds, errors = import_demos([root], _spec(success_threshold=0.5))  # the largest next.reward >= 0.5
+    ds, errors = _import([root], success_threshold=0.5)  # the largest next.reward >= 0.5
     assert errors == [] and ds.labels.tolist() == [1, 0, 1, 0]
-    ds, errors = import_demos([root], _spec(KEYS + ",success=next.reward", success_threshold=0.1))
+    ds, errors = _import([root], KEYS + ",success=next.reward", success_threshold=0.1)
     assert ds.labels.tolist() == [1, 1, 1, 1]
     for file in root.glob("data/*/*.parquet"):  # a dataset without next.success: next.reward, 0.9 is no label
         pq.write_table(pq.read_table(file).drop_columns(["next.success"]), file)
-    ds, errors = import_demos([root], _spec())
+    ds, errors = _import([root])
     assert ds is None and "episode 0, field 'success' (next.reward): last value 0.9 is neither 1" in errors[0]
     assert "--success-threshold" in errors[0]
     for file in root.glob("data/*/*.parquet"):  # next.done alone: 1 at the end of every episode
         pq.write_table(pq.read_table(file).drop_columns(["next.reward"]), file)
-    ds, errors = import_demos([root], _spec())
+    ds, errors = _import([root])
     assert ds is None and errors == [
         f"{root}: every label comes from 'next.done' and all 4 are 1: 'next.done' marks the end of every "
         "demonstration (robomimic's done_mode 2, LeRobot's next.done), success or not; map a success column with "
@@ -139,20 +141,20 @@ def test_bad_files_columns_and_versions_are_named(tmp_path):
     root = write_dataset(tmp_path / "d", bad_episode=None)
     first = root / "data" / "chunk-000" / "file-000.parquet"
     pq.write_table(pq.read_table(first).drop_columns(["observation.force"]), first)
-    ds, errors = import_demos([root], _spec())
+    ds, errors = _import([root])
     assert ds.meta["demo_ids"] == ["d:episode_2", "d:episode_3"]  # the other file is kept
     assert errors[0].startswith(f"{first}, field 'f': no column 'observation.force' (the file has [")
     assert errors[0].endswith("map one with --keys f=COLUMN[:INDEX]")
-    _, errors = import_demos([root], _spec(KEYS.replace("observation.state:1", "observation.state")))
+    _, errors = _import([root], KEYS.replace("observation.state:1", "observation.state"))
     assert "field 'y' (observation.state): column 'observation.state' holds 3 values per row: choose one with " \
            "--keys y=observation.state:INDEX" in errors[-1]
-    _, errors = import_demos([root], _spec(KEYS.replace("observation.state:1", "observation.state:3")))
+    _, errors = _import([root], KEYS.replace("observation.state:1", "observation.state:3"))
     assert "index 3 is out of range" in errors[-1]
     (root / "data" / "chunk-001" / "file-000.parquet").write_text("not parquet")
-    _, errors = import_demos([root], _spec())
+    _, errors = _import([root])
     assert "file-000.parquet: not a readable parquet file" in errors[-1]
     old = write_dataset(tmp_path / "old", version="v2.1")
-    ds, errors = import_demos([old], _spec())
+    ds, errors = _import([old])
     assert ds is None and errors == [f"{old / 'meta' / 'info.json'}: codebase_version 'v2.1' is not supported; "
                                      "judgeopt reads LeRobot v3.x datasets (convert older ones with lerobot's "
                                      "convert_dataset_v21_to_v30)"]
@@ -161,7 +163,7 @@ def test_bad_files_columns_and_versions_are_named(tmp_path):
 def test_without_pyarrow_one_line_says_what_to_install(tmp_path, monkeypatch):
     root = write_dataset(tmp_path / "d")
     monkeypatch.setitem(sys.modules, "pyarrow", None)
-    ds, errors = import_demos([root], _spec())
+    ds, errors = _import([root])
     assert ds is None and errors == ["reading a LeRobot dataset needs pyarrow: pip install 'judgeopt[lerobot]' "
                                      "(or pip install pyarrow)"]
 

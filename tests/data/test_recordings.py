@@ -12,6 +12,7 @@ import pytest
 
 from judgeopt.data.export import export_csv
 from judgeopt.data.importer import ImportError_, ImportSpec, import_demos
+from judgeopt.data.readers.hdf5 import Hdf5Options
 from judgeopt.files import REPO
 
 ENV = ("y_obj", "mu")
@@ -102,14 +103,14 @@ def test_filter_keys_pick_demo_groups(tmp_path):
     with h5py.File(path, "a") as h:
         h["mask/train"] = np.array([b"demo_0", b"demo_2"])
         h["mask/valid"] = np.array([b"demo_1", b"demo_9"])
-    ds, errors = import_demos([path], ImportSpec(ENV, filter_key="train"))
+    ds, errors = import_demos([path], ImportSpec(ENV), {"hdf5": Hdf5Options(filter_key="train")})
     assert errors == [] and ds.meta["demo_ids"] == ["demos.hdf5:demo_0", "demos.hdf5:demo_2"]
-    ds, errors = import_demos([path], ImportSpec(ENV, filter_key="valid"))
+    ds, errors = import_demos([path], ImportSpec(ENV), {"hdf5": Hdf5Options(filter_key="valid")})
     assert ds.meta["demo_ids"] == ["demos.hdf5:demo_1"]
     assert errors == [f"{path}, mask/valid: lists demo group 'demo_9', which is not in 'data'"]
-    ds, errors = import_demos([path], ImportSpec(ENV, filter_key="test"))
+    ds, errors = import_demos([path], ImportSpec(ENV), {"hdf5": Hdf5Options(filter_key="test")})
     assert ds is None and errors == [f"{path}: no filter key 'test' (mask/test); the file has ['train', 'valid']"]
-    _, errors = import_demos([EXAMPLE_H5], ImportSpec(ENV, filter_key="train"))
+    _, errors = import_demos([EXAMPLE_H5], ImportSpec(ENV), {"hdf5": Hdf5Options(filter_key="train")})
     assert errors == [f"{EXAMPLE_H5}: no filter key 'train' (mask/train); the file has no 'mask' group"]
 
 
@@ -120,13 +121,14 @@ def test_dense_rewards_with_a_threshold(tmp_path):
             g = h[f"data/demo_{k}"]
             del g["rewards"]
             g["rewards"] = np.r_[np.linspace(0, peak, 100), np.full(51, peak * 0.5)]  # the largest, not the last
-    ds, errors = import_demos([path], ImportSpec(ENV, success_threshold=0.5))  # the success attribute is not asked
+    # the success attribute is not asked
+    ds, errors = import_demos([path], ImportSpec(ENV), {"hdf5": Hdf5Options(success_threshold=0.5)})
     assert errors == [] and ds.labels.tolist() == [1, 0, 1]
-    ds, _ = import_demos([path], ImportSpec(ENV, success_threshold=0.9))
+    ds, _ = import_demos([path], ImportSpec(ENV), {"hdf5": Hdf5Options(success_threshold=0.9)})
     assert ds.labels.tolist() == [0, 0, 1]
     with h5py.File(path, "a") as h:
         del h["data/demo_1/rewards"]
-    _, errors = import_demos([path], ImportSpec(ENV, success_threshold=0.5))
+    _, errors = import_demos([path], ImportSpec(ENV), {"hdf5": Hdf5Options(success_threshold=0.5)})
     assert errors == [f"{path}, demo group 'data/demo_1', field 'success': no success flag: found no dataset "
                       "'rewards' (also under obs/) for --success-threshold; map one with --hdf5-keys success=NAME"]
 

@@ -19,7 +19,7 @@ from judgeopt.data.dataset import load  # noqa: E402
 from judgeopt.data.importer import ImportSpec, import_demos  # noqa: E402
 from judgeopt.data.labels import LabelFile  # noqa: E402
 from judgeopt.data.recording import ImportError_  # noqa: E402
-from judgeopt.data.ros2 import is_bag, parse_topics  # noqa: E402
+from judgeopt.data.readers.mcap import McapOptions, is_bag, parse_topics  # noqa: E402
 
 TS = get_typestore(Stores.LATEST)
 T = TS.types
@@ -81,9 +81,10 @@ def write_bag(path: Path, messages: list[tuple[int, str, object]]) -> Path:
     return path
 
 
-def _spec(topics: str = TOPICS, **kw) -> ImportSpec:
+def _import(paths: list[Path], topics: str = TOPICS, **kw):
     kw.setdefault("env_values", ENV)
-    return ImportSpec(("y_obj", "mu"), ros_topics=parse_topics(topics, ("y_obj", "mu"), ("y", "f")), **kw)
+    options = McapOptions(parse_topics(topics, ("y_obj", "mu"), ("y", "f")))
+    return import_demos(paths, ImportSpec(("y_obj", "mu"), **kw), {"mcap": options})
 
 
 def _check_ramp(x: np.ndarray, y0: float = 0.0, force=lambda t: 5.0 + 0 * t) -> None:
@@ -100,7 +101,7 @@ def test_a_bag_folder_and_a_bare_mcap_file_give_the_recorded_values(tmp_path):
     mcap = next(bag.glob("*.mcap"))
     bare = shutil.copy(mcap, tmp_path / "run2.mcap")
     assert is_bag(bag) and is_bag(Path(bare)) and not is_bag(tmp_path)
-    ds, errors = import_demos([bag, bare], _spec())
+    ds, errors = _import([bag, bare])
     assert errors == [] and ds.meta["demo_ids"] == ["run1", "run2"] and ds.labels.tolist() == [1, 1]
     np.testing.assert_allclose(ds.env, [[0.2, 0.5], [0.2, 0.5]])
     for x in ds.responses:
@@ -110,7 +111,7 @@ def test_a_bag_folder_and_a_bare_mcap_file_give_the_recorded_values(tmp_path):
 def test_zero_header_stamps_fall_back_to_the_log_time(tmp_path):
     force = lambda t: 5.0 + 2.0 * t  # noqa: E731  a ramp: checks the force's own time base too
     bag = write_bag(tmp_path / "nostamp", _episode(0.0, force=force, stamps=False))
-    ds, errors = import_demos([bag], _spec())
+    ds, errors = _import([bag])
     assert errors == []
     _check_ramp(ds.responses[0], force=force)
 
@@ -122,14 +123,14 @@ def test_an_episode_topic_cuts_a_bag_into_demonstrations(tmp_path):
         messages.append((EPOCH + int((start - 0.05) * 1e9), "/episode", T["std_msgs/msg/Int32"](data=k)))
         messages += _episode(start, y0=0.01 * k, label=label)
     bag = write_bag(tmp_path / "session", messages)
-    ds, errors = import_demos([bag], _spec(TOPICS + ",episode=/episode"))
+    ds, errors = _import([bag], TOPICS + ",episode=/episode")
     assert errors == [] and ds.meta["demo_ids"] == ["session:0", "session:1", "session:2"]
     assert ds.labels.tolist() == [1, 0, 1]
     for k, x in enumerate(ds.responses):
         _check_ramp(x, y0=0.01 * k)
     # a labels file wins over the label topic, looked up by <bag>:<episode>
     labels = LabelFile("labels.csv", {"session:0": 0, "session:1": 1, "session:2": 0})
-    ds, errors = import_demos([bag], _spec("y=/tool/pose:y,f=/ft/wrench:z,episode=/episode", labels=labels))
+    ds, errors = _import([bag], "y=/tool/pose:y,f=/ft/wrench:z,episode=/episode", labels=labels)
     assert errors == [] and ds.labels.tolist() == [0, 1, 0]
 
 
@@ -137,24 +138,23 @@ def test_environment_values_from_topics_and_the_missing_label(tmp_path):
     messages = _episode(0.0, label=None) + [
         (EPOCH + k * 10**8, f"/env/{n}", T["std_msgs/msg/Float64"](data=v)) for k in range(3) for n, v in ENV.items()]
     bag = write_bag(tmp_path / "env", messages)
-    ds, errors = import_demos([bag], _spec(TOPICS + ",y_obj=/env/y_obj,mu=/env/mu", env_values={}))
+    ds, errors = _import([bag], TOPICS + ",y_obj=/env/y_obj,mu=/env/mu", env_values={})
     assert ds is None and errors == [  # this bag has no label topic
         f"{bag}: no topic '/outcome' (for 'label'); the bag has /env/mu (std_msgs/msg/Float64), "
                       "/env/y_obj (std_msgs/msg/Float64), /ft/wrench (geometry_msgs/msg/WrenchStamped), /tool/pose "
                       "(geometry_msgs/msg/PoseStamped); name another with --topics label=TOPIC"]
-    ds, errors = import_demos([bag], _spec("y=/tool/pose:y,f=/ft/wrench:z,y_obj=/env/y_obj,mu=/env/mu",
-                                           env_values={}))
+    ds, errors = _import([bag], "y=/tool/pose:y,f=/ft/wrench:z,y_obj=/env/y_obj,mu=/env/mu", env_values={})
     assert ds is None and errors == [f"{bag}: the bag has no label (a bag does not carry one); give a labels file "
                                      "with --labels FILE (a row 'env',success or failure) or name a topic with "
                                      "--topics label=TOPIC (std_msgs/msg/Bool or std_msgs/msg/String)"]
-    ds, errors = import_demos([bag], _spec("y=/tool/pose:y,f=/ft/wrench:z,y_obj=/env/y_obj,mu=/env/mu",
-                                           env_values={}, labels=LabelFile("l.csv", {"env": 1})))
+    ds, errors = _import([bag], "y=/tool/pose:y,f=/ft/wrench:z,y_obj=/env/y_obj,mu=/env/mu",
+                         env_values={}, labels=LabelFile("l.csv", {"env": 1}))
     assert errors == [] and ds.env.tolist() == [[0.2, 0.5]] and ds.labels.tolist() == [1]
-    _, errors = import_demos([bag], _spec("y=/tool/pose:y,f=/ft/wrench:z", env_values={"mu": 0.5},
-                                          labels=LabelFile("l.csv", {"env": 1})))
-    assert errors == [f"{bag}: no value for environment name 'y_obj' (a bag does not carry it); give it with --env "
-                      "y_obj=VALUE or name a topic with --topics y_obj=TOPIC (std_msgs/msg/Float64 or "
-                      "std_msgs/msg/Float32)"]
+    _, errors = _import([bag], "y=/tool/pose:y,f=/ft/wrench:z", env_values={"mu": 0.5},
+                        labels=LabelFile("l.csv", {"env": 1}))
+    assert errors == [f"{bag}: no value for environment name 'y_obj' (a bag does not carry it); leave it out with "
+                      "--env-names mu, give it with --env y_obj=VALUE or name a topic with --topics y_obj=TOPIC "
+                      "(std_msgs/msg/Float64 or std_msgs/msg/Float32)"]
 
 
 def test_bad_bags_are_named_and_the_rest_imported(tmp_path):
@@ -164,7 +164,7 @@ def test_bad_bags_are_named_and_the_rest_imported(tmp_path):
                       + [(EPOCH + k * 10**6, "/ft/wrench", T["std_msgs/msg/Float64"](data=5.0)) for k in range(10)])
     junk = tmp_path / "junk.mcap"
     junk.write_text("not an mcap file")
-    ds, errors = import_demos([good, no_wrench, wrong, junk], _spec())
+    ds, errors = _import([good, no_wrench, wrong, junk])
     assert ds.meta["demo_ids"] == ["good"] and ds.meta["files_imported"] == 1
     assert errors == [
         f"{no_wrench}: no topic '/ft/wrench' (for 'f'); the bag has /outcome (std_msgs/msg/Bool), /tool/pose "
@@ -173,7 +173,7 @@ def test_bad_bags_are_named_and_the_rest_imported(tmp_path):
         "name another with --topics f=TOPIC:AXIS",
         f"{junk}: not a readable ROS 2 bag (File magic is invalid.); give a rosbag2 folder (metadata.yaml + .mcap) or "
         "a .mcap file; repair a cut-off one with `mcap recover`"]
-    _, errors = import_demos([good], _spec("f=/ft/wrench:z,label=/outcome"))
+    _, errors = _import([good], "f=/ft/wrench:z,label=/outcome")
     assert errors[0].startswith(f"{good}: no topic named for 'y'; the bag has /ft/wrench (")
     assert errors[0].endswith("name one with --topics y=TOPIC:AXIS")
 
@@ -194,7 +194,7 @@ def test_topics_flag_syntax():
 def test_without_rosbags_one_line_says_what_to_install(tmp_path, monkeypatch):
     bag = write_bag(tmp_path / "b", _episode(0.0))
     monkeypatch.setitem(sys.modules, "rosbags.rosbag2", None)
-    ds, errors = import_demos([bag], _spec())
+    ds, errors = _import([bag])
     assert ds is None and errors == ["reading a ROS 2 bag needs rosbags: pip install 'judgeopt[ros]' "
                                      "(or pip install rosbags)"]
 
@@ -215,4 +215,5 @@ def test_the_command_reads_a_folder_of_bags(tmp_path, capsys):
     csv = tmp_path / "a.csv"
     csv.write_text("t,y,f,label,y_obj,mu\n0,0,5,success,0.2,0.5\n0.1,0.01,5,success,0.2,0.5\n")
     assert main(["import-demos", str(csv), "--topics", TOPICS, "--out", str(tmp_path / "p.h5")]) == 2
-    assert "--topics names the topics of ROS 2 bags; no bag" in capsys.readouterr().err
+    assert "--topics names the topics of ROS 2 bags; no ROS 2 bag (a folder with metadata.yaml, or a .mcap file) is " \
+           "given (for the inputs given: --columns)" in capsys.readouterr().err

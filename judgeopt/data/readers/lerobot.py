@@ -11,7 +11,7 @@ numeric frames are needed, not torch, video decoding or the Hub. Layout of a loc
 
 Each episode (its rows in every data file, grouped by `episode_index`) becomes one `RawDemo`, so
 the checks, windows and resampling are the other formats'. Where each name is read
-(`ImportSpec.lerobot_keys`, the command's `--keys NAME=COLUMN[:INDEX]`, INDEX picking one element
+(`LeRobotOptions.keys`, the command's `--keys NAME=COLUMN[:INDEX]`, INDEX picking one element
 of a vector column), by default:
 
     t        `timestamp`; else `frame_index` / fps; else the row's place in its episode / fps
@@ -31,11 +31,12 @@ import json
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Mapping
 
 import numpy as np
 
-from judgeopt.data.recording import ImportError_, ImportSpec, RawDemo, series_label, split_key
+from judgeopt.data.readers.base import SUCCESS_THRESHOLD, Flag, Reader, Source
+from judgeopt.data.recording import ImportError_, ImportSpec, RawDemo, env_fix, parse_keys, series_label, split_key
 
 INFO = Path("meta") / "info.json"
 DEFAULT_DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
@@ -43,8 +44,23 @@ DEFAULT_DATA_PATH = "data/chunk-{chunk_index:03d}/file-{file_index:03d}.parquet"
 SUCCESS_COLUMNS = ("next.success", "next.reward", "next.done")
 DONE_COLUMN = "next.done"
 #: what to pass instead when every label comes from next.done
-LEROBOT_LABEL_HINT = ("map a success column with --keys success=COLUMN, or label from next.reward with "
+LABEL_HINT = ("map a success column with --keys success=COLUMN, or label from next.reward with "
                       "--success-threshold X")
+
+
+@dataclass(frozen=True)
+class LeRobotOptions:
+    #: name -> "COLUMN" or "COLUMN:INDEX" (`--keys`); unmapped names are read where the docstring says
+    keys: Mapping[str, str] = field(default_factory=dict)
+    #: dense rewards: label 1 when the episode's largest next.reward is >= this
+    success_threshold: float | None = None
+
+
+def parse_lerobot_keys(text: str | None, spec: ImportSpec) -> dict[str, str]:
+    """`y=observation.state:1,success=next.success` -> {"y": "observation.state:1", ...}, checked:
+    t, the task's channels, success and the environment names, each with an optional INDEX."""
+    return parse_keys(text, spec.env_names, [c.name for c in spec.channels], flag="--keys", scalars=("success",),
+                      columns_everywhere=True)
 
 
 def is_lerobot(path: Path) -> bool:
@@ -96,9 +112,10 @@ def fps(root: Path, info: dict[str, Any]) -> float:
     return float(value)
 
 
-def _sources(spec: ImportSpec, columns: list[str], info: dict[str, Any], file: Path) -> dict[str, str]:
+def _sources(spec: ImportSpec, options: LeRobotOptions, columns: list[str], info: dict[str, Any], file: Path
+             ) -> dict[str, str]:
     """Where each name is read in one data file: NAME -> "COLUMN[:INDEX]" (see the module docstring)."""
-    keys = spec.lerobot_keys
+    keys = options.keys
     out: dict[str, str] = {}
 
     def need(name: str, ref: str) -> None:
@@ -117,12 +134,12 @@ def _sources(spec: ImportSpec, columns: list[str], info: dict[str, Any], file: P
     for name in spec.env_names:
         if name not in out and name not in spec.env_values and not isinstance(info.get(name), (int, float)):
             raise ImportError_(f"{file}, field {name!r}: no column {name!r} and no number {name!r} in {INFO}; "
-                               f"map a column with --keys {name}=COLUMN[:INDEX]")
+                               + env_fix(spec, [name], f"map a column with --keys {name}=COLUMN[:INDEX]"))
     if "t" in keys:
         need("t", keys["t"])
     elif "timestamp" in columns or "frame_index" in columns:
         out["t"] = "timestamp" if "timestamp" in columns else "frame_index"
-    order = ("next.reward",) if spec.success_threshold is not None else SUCCESS_COLUMNS
+    order = ("next.reward",) if options.success_threshold is not None else SUCCESS_COLUMNS
     found = [c for c in order if c in columns]
     if "success" in keys:
         need("success", keys["success"])
@@ -178,12 +195,13 @@ class _Episode:
     parts: list[tuple[int, np.ndarray, dict[str, np.ndarray]]] = field(default_factory=list)  # (file, rows, values)
 
 
-def _read(file: Path, spec: ImportSpec, info: dict[str, Any], episodes: dict[int, _Episode]) -> dict[str, str]:
+def _read(file: Path, spec: ImportSpec, options: LeRobotOptions, info: dict[str, Any],
+          episodes: dict[int, _Episode]) -> dict[str, str]:
     """Add one data file's rows to `episodes`; where each name was read."""
     pa, pc, pq = _pyarrow()
     try:
         columns = list(pq.read_schema(file).names)
-        sources = _sources(spec, columns, info, file)
+        sources = _sources(spec, options, columns, info, file)
         table = pq.read_table(file, columns=sorted({split_key(r)[0] for r in sources.values()}))
     except (OSError, pa.ArrowException) as exc:
         raise ImportError_(f"{file}: not a readable parquet file ({exc})") from None
@@ -201,7 +219,8 @@ def _read(file: Path, spec: ImportSpec, info: dict[str, Any], episodes: dict[int
     return sources
 
 
-def _raw(ep: _Episode, spec: ImportSpec, info: dict[str, Any], sources: dict[str, str], root: Path) -> RawDemo:
+def _raw(ep: _Episode, spec: ImportSpec, options: LeRobotOptions, info: dict[str, Any], sources: dict[str, str],
+         root: Path) -> RawDemo:
     """One episode as a RawDemo: its rows concatenated, time and label worked out."""
     if any(set(p) != set(ep.parts[0][2]) for _, _, p in ep.parts):
         raise ImportError_(f"{ep.files[0]}: episode {ep.index} continues in {ep.files[1:]}, whose columns differ")
@@ -209,7 +228,7 @@ def _raw(ep: _Episode, spec: ImportSpec, info: dict[str, Any], sources: dict[str
     rows = np.concatenate([rows for _, rows, _ in ep.parts])
     v = {n: np.concatenate([p[n] for _, _, p in ep.parts]) for n in ep.parts[0][2]}
     desc = dict(sources)
-    if sources.get("t") == "frame_index" and "t" not in spec.lerobot_keys:
+    if sources.get("t") == "frame_index" and "t" not in options.keys:
         v["t"] = v["t"] / fps(root, info)
         desc["t"] = f"frame_index / fps {fps(root, info):g}"
     elif "t" not in v:
@@ -227,16 +246,18 @@ def _raw(ep: _Episode, spec: ImportSpec, info: dict[str, Any], sources: dict[str
         return f"{ep.files[which[i]]}, episode {ep.index}, row {rows[i]}, field {c!r} ({desc[c]})"
 
     label = None if "success" not in sources else series_label(
-        v.pop("success"), f"{origin}, episode {ep.index}, field 'success' ({sources['success']})", spec.success_threshold)
-    done = sources.get("success") == DONE_COLUMN and "success" not in spec.lerobot_keys
+        v.pop("success"), f"{origin}, episode {ep.index}, field 'success' ({sources['success']})",
+        options.success_threshold)
+    done = sources.get("success") == DONE_COLUMN and "success" not in options.keys
     return RawDemo(str(origin), f"episode {ep.index}", f"{root.name}:episode_{ep.index}", v, env, label, where,
                    label_from_done=DONE_COLUMN if done else "")
 
 
-def lerobot_demos(root: Path, spec: ImportSpec) -> tuple[list[RawDemo], list[str]]:
+def read(source: Source, spec: ImportSpec, options: LeRobotOptions) -> tuple[list[RawDemo], list[str]]:
     """Every episode of a LeRobot v3 dataset folder as a RawDemo (values not yet checked), and
     one message per data file or episode that could not be read. Raises ImportError_ when the
     dataset as a whole cannot be read (no pyarrow, info.json, version, no data files)."""
+    root = source.path
     _pyarrow()
     info = read_info(root)
     episodes: dict[int, _Episode] = {}
@@ -244,13 +265,26 @@ def lerobot_demos(root: Path, spec: ImportSpec) -> tuple[list[RawDemo], list[str
     errors = []
     for file in data_files(root, info):
         try:
-            sources[file] = _read(file, spec, info, episodes)
+            sources[file] = _read(file, spec, options, info, episodes)
         except ImportError_ as exc:
             errors.append(str(exc))
     raws = []
     for e in sorted(episodes):
         try:
-            raws.append(_raw(episodes[e], spec, info, sources[episodes[e].files[0]], root))
+            raws.append(_raw(episodes[e], spec, options, info, sources[episodes[e].files[0]], root))
         except ImportError_ as exc:
             errors.append(str(exc))
     return raws, errors
+
+
+READER = Reader(
+    "lerobot", "LeRobot v3", "LeRobot dataset folder (with meta/info.json)", read, LeRobotOptions, folder=is_lerobot,
+    done_hint=LABEL_HINT, flags=(
+        Flag("--keys", "keys", parse=parse_lerobot_keys, metavar="NAME=COLUMN[:INDEX],...", kind="map",
+             does="maps LeRobot columns",
+             help="where a LeRobot dataset keeps t, a channel, success or an environment value, e.g. "
+             "'y=observation.state:1,f=observation.force:2,success=next.success' (:INDEX picks one element of a "
+             "vector column; default: t from timestamp, success from next.success/next.reward/next.done, the rest "
+             "from columns of their own name)"),
+        SUCCESS_THRESHOLD,
+    ))

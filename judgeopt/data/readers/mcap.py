@@ -5,7 +5,7 @@ Read with `rosbags` (the optional extra `judgeopt[ros]`), not with a ROS install
 a rosbag2 folder (metadata.yaml and its .mcap files; rosbags reads a sqlite3 .db3 folder the
 same way) or a bare `.mcap` file (rosbags reads its own summary; no metadata.yaml needed).
 
-Which topic holds what (`ImportSpec.ros_topics`, the command's `--topics`):
+Which topic holds what (`McapOptions.topics`, the command's `--topics`):
 
     NAME=TOPIC:AXIS  each position and force channel of the task, AXIS one of x, y, z: a
                      position is pose.position.AXIS of a geometry_msgs/msg/PoseStamped topic,
@@ -41,13 +41,14 @@ from __future__ import annotations
 
 import re
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
-from judgeopt.data.recording import LABELS, ImportError_, ImportSpec, RawDemo
+from judgeopt.data.readers.base import Flag, Reader, Source
+from judgeopt.data.recording import LABELS, ImportError_, ImportSpec, RawDemo, env_fix
 
 POSE = "geometry_msgs/msg/PoseStamped"
 WRENCH = "geometry_msgs/msg/WrenchStamped"
@@ -65,6 +66,12 @@ _TOPIC = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:,\s]+)\s*(?::\s*([^
 
 
 # -- which inputs are bags, and the --topics flag ---------------------------------------------------
+@dataclass(frozen=True)
+class McapOptions:
+    #: name -> "TOPIC:AXIS" (channels) or "TOPIC" (episode, label, environment) (`--topics`)
+    topics: Mapping[str, str] = field(default_factory=dict)
+
+
 def is_bag(path: Path) -> bool:
     """A rosbag2 folder (metadata.yaml) or an .mcap file."""
     path = Path(path)
@@ -131,9 +138,8 @@ class _Topic:
     msgs: list[Any]
 
 
-def _wanted(path: Path, spec: ImportSpec, types: Mapping[str, str | None]) -> set[str]:
+def _wanted(path: Path, spec: ImportSpec, topics: Mapping[str, str], types: Mapping[str, str | None]) -> set[str]:
     """The topics to read, checked against the bag: there, and of a message type allowed for their use."""
-    topics = spec.ros_topics
     need: dict[str, tuple[str, tuple[str, ...]]] = {}  # name -> (topic, allowed types)
     for c in spec.channels:
         if c.kind in FIELDS:
@@ -162,15 +168,15 @@ def _stamp(msg: Any) -> int:
     return int(header.stamp.sec) * 1_000_000_000 + int(header.stamp.nanosec) if header is not None else 0
 
 
-def read_bag(path: Path, spec: ImportSpec) -> dict[str, _Topic]:
-    """The messages of every topic `spec.ros_topics` names, decoded; raises ImportError_ for an
-    unreadable bag or a missing or mistyped topic."""
+def read_bag(path: Path, spec: ImportSpec, topics: Mapping[str, str]) -> dict[str, _Topic]:
+    """The messages of every topic `topics` (`McapOptions.topics`) names, decoded; raises
+    ImportError_ for an unreadable bag or a missing or mistyped topic."""
     Reader, errors, typestore = _rosbags()
     got: dict[str, tuple[list[int], list[Any]]] = {}
     try:
         with Reader(path) as reader:
             types = {t: info.msgtype for t, info in reader.topics.items()}
-            wanted = _wanted(path, spec, types)
+            wanted = _wanted(path, spec, topics, types)
             connections = [c for c in reader.connections if c.topic in wanted]
             for con, log, raw in reader.messages(connections):
                 logs, msgs = got.setdefault(con.topic, ([], []))
@@ -196,14 +202,14 @@ def bag_name(path: Path) -> str:
     return path.name if path.is_dir() else path.stem
 
 
-def _spans(path: Path, spec: ImportSpec, topics: dict[str, _Topic]) -> list[tuple[int, int]]:
+def _spans(path: Path, names: Mapping[str, str], topics: dict[str, _Topic]) -> list[tuple[int, int]]:
     """Log-time spans [from, to) of the episodes: one per message on the episode topic, or the whole bag."""
     end = int(np.iinfo(np.int64).max)
-    if "episode" not in spec.ros_topics:
+    if "episode" not in names:
         return [(int(np.iinfo(np.int64).min), end)]
-    marks = topics[spec.ros_topics["episode"]].log.tolist()
+    marks = topics[names["episode"]].log.tolist()
     if not marks:
-        raise ImportError_(f"{path}: episode topic {spec.ros_topics['episode']!r} has no messages; leave out "
+        raise ImportError_(f"{path}: episode topic {names['episode']!r} has no messages; leave out "
                            f"episode= from {FLAG} to import the bag as one demonstration")
     return list(zip(marks, [*marks[1:], end]))
 
@@ -224,18 +230,20 @@ class _Bag:
 
     path: Path
     spec: ImportSpec
+    #: name -> "TOPIC[:AXIS]" (`McapOptions.topics`)
+    names: Mapping[str, str]
     topics: dict[str, _Topic]
     use_log: bool
 
     def topic(self, name: str) -> _Topic:
-        return self.topics[self.spec.ros_topics[name].split(":")[0]]
+        return self.topics[self.names[name].split(":")[0]]
 
     def times(self, tp: _Topic, rows: np.ndarray) -> np.ndarray:
         return (tp.log if self.use_log else tp.stamp)[rows]
 
     def field(self, name: str) -> str:
         kind = next(c.kind for c in self.spec.channels if c.name == name)
-        return f"{FIELDS[kind][1]}.{self.spec.ros_topics[name].split(':')[1]}"
+        return f"{FIELDS[kind][1]}.{self.names[name].split(':')[1]}"
 
     def values(self, name: str, rows: np.ndarray) -> np.ndarray:
         outer, inner, axis = self.field(name).split(".")
@@ -279,10 +287,10 @@ def _episode(bag: _Bag, k: int | None, span: tuple[int, int]) -> RawDemo:
 
 def _env(bag: _Bag, name: str, rows: dict[str, np.ndarray], what: str) -> np.ndarray:
     """An environment value from its topic: every message in the episode (`check` wants them equal)."""
-    if name not in bag.spec.ros_topics:
-        raise ImportError_(f"{bag.path}: no value for environment name {name!r} (a bag does not carry it); give it "
-                           f"with --env {name}=VALUE or name a topic with {FLAG} {name}=TOPIC "
-                           f"({' or '.join(ENV_TYPES)})")
+    if name not in bag.names:
+        raise ImportError_(f"{bag.path}: no value for environment name {name!r} (a bag does not carry it); "
+                           + env_fix(bag.spec, [name], f"name a topic with {FLAG} {name}=TOPIC "
+                                                       f"({' or '.join(ENV_TYPES)})"))
     tp = bag.topic(name)
     if not len(rows[tp.name]):
         raise ImportError_(f"{bag.path}: {what} has no messages on {tp.name!r} (for {name!r})")
@@ -294,7 +302,7 @@ def _demo_label(bag: _Bag, rows: dict[str, np.ndarray], what: str, demo_id: str)
     labels (`check` looks them up by the demo id `<bag>` or `<bag>:<episode>`, or the bag's name)."""
     if bag.spec.labels is not None:
         return None
-    if "label" not in bag.spec.ros_topics:
+    if "label" not in bag.names:
         raise ImportError_(f"{bag.path}: {what} has no label (a bag does not carry one); give a labels file with "
                            f"--labels FILE (a row {demo_id!r},success or failure) or name a topic with {FLAG} "
                            f"label=TOPIC ({' or '.join(LABEL_TYPES)})")
@@ -305,19 +313,32 @@ def _demo_label(bag: _Bag, rows: dict[str, np.ndarray], what: str, demo_id: str)
     return _label(tp.msgs[i].data, f"{bag.path}, topic {tp.name!r}, message {i}, field 'label'")
 
 
-def bag_demos(path: Path, spec: ImportSpec) -> tuple[list[RawDemo], list[str]]:
+def read(source: Source, spec: ImportSpec, options: McapOptions) -> tuple[list[RawDemo], list[str]]:
     """Every demonstration of one bag as a RawDemo (values not yet checked), and one message per
     episode that could not be cut out. Raises ImportError_ when the bag as a whole cannot be
     read (no rosbags, unreadable, topics missing or of the wrong type)."""
-    path = Path(path)
-    topics = read_bag(path, spec)
-    stamps = [topics[spec.ros_topics[n].split(":")[0]].stamp for n in spec.names("position", "force")]
-    bag = _Bag(path, spec, topics, use_log=not all(s.any() for s in stamps))
-    episodes = "episode" in spec.ros_topics
+    path, names = source.path, options.topics
+    topics = read_bag(path, spec, names)
+    stamps = [topics[names[n].split(":")[0]].stamp for n in spec.names("position", "force")]
+    bag = _Bag(path, spec, names, topics, use_log=not all(s.any() for s in stamps))
+    episodes = "episode" in names
     raws, errors = [], []
-    for k, span in enumerate(_spans(path, spec, topics)):
+    for k, span in enumerate(_spans(path, names, topics)):
         try:
             raws.append(_episode(bag, k if episodes else None, span))
         except ImportError_ as exc:
             errors.append(str(exc))
     return raws, errors
+
+
+READER = Reader(
+    "mcap", "ROS 2 bags (MCAP)", "ROS 2 bag (a folder with metadata.yaml, or a .mcap file)", read, McapOptions,
+    suffixes=(".mcap",), folder=is_bag, flags=(
+        Flag("--topics", "topics", metavar="NAME=TOPIC[:AXIS],...", kind="map", does="names the topics of ROS 2 bags",
+             parse=lambda text, spec: parse_topics(text, spec.env_names, spec.names("position", "force")),
+             help="which topics of a ROS 2 bag hold a channel (NAME=TOPIC:AXIS, AXIS x, y or z: a position of a "
+             "geometry_msgs/msg/PoseStamped, a force of a WrenchStamped), the start of each episode (episode=TOPIC, "
+             "std_msgs Int32 or String; default: one bag, one demonstration), the label (label=TOPIC, std_msgs Bool "
+             "or String) or an environment value (NAME=TOPIC, std_msgs Float64), e.g. "
+             "'y=/tool/pose:y,f=/ft/wrench:z,episode=/episode'"),
+    ))
