@@ -29,8 +29,8 @@ bench: setup
 # remake the paper's shipped generators, against the judge trained on demonstrations only (about 7 min each
 # on one core); the refined judge's generators are fine-tuned from these (docs/remedies.md, docs/planners.md)
 generators: setup
-	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --judge models/judge_default --out models/generator_paper_sim --overwrite
-	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --judge models/judge_default --out models/generator_paper_sim_slow --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim.toml --judge models/judge_demos_tcn --out models/generator_paper_sim --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/paper_sim_slow.toml --judge models/judge_demos_tcn --out models/generator_paper_sim_slow --overwrite
 
 # remake the shipped datasets (about 18 min on 2 cores; resumable)
 data: setup
@@ -75,9 +75,9 @@ scrape: setup
 	$(BIN)/judgeopt collect --task scrape --out data/scrape/train.h5 --seed 0 --n 10000 --overwrite
 	$(BIN)/judgeopt collect --task scrape --out data/scrape/test.h5 --seed 1 --n 1000 --overwrite
 	$(BIN)/judgeopt collect --task scrape --out data/scrape/test_seed2.h5 --seed 2 --n 1000 --overwrite
-	$(BIN)/judgeopt train-judge --train data/scrape/train.h5 --test data/scrape/test.h5 --out models/scrape/judge --overwrite
-	$(BIN)/judgeopt train-generator --problem problems/scrape.toml --out models/scrape/generator --overwrite
-	$(BIN)/judgeopt train-generator --problem problems/scrape_slow.toml --out models/scrape/generator_slow --overwrite
+	$(BIN)/judgeopt train-judge --train data/scrape/train.h5 --test data/scrape/test.h5 --out models/scrape/judge_demos --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/scrape.toml --judge models/scrape/judge_demos --out models/scrape/generator --overwrite
+	$(BIN)/judgeopt train-generator --problem problems/scrape_slow.toml --judge models/scrape/judge_demos --out models/scrape/generator_slow --overwrite
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 100 --out docs/results/scrape
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape_slow.toml --n 100 --out docs/results/scrape_slow
 	$(MAKE) scrape-trust
@@ -85,7 +85,7 @@ scrape: setup
 # the scrape's judge refined over its limit space (4 rounds of the direct solve, then 2 with the generator conditioned
 # on the limits as well); a calibration over limits fitted for comparison (not shipped); held-out limits and
 # environments (docs/remedies.md; about 50 min on 2 cores, every step resumable)
-SCRAPE_REFINE := --problem problems/scrape.toml --judge models/scrape/judge --sample-limits --n 200 --weight 8 --judge-epochs 3 --seed 1 --train data/scrape/train.h5 --test data/scrape/test.h5 --out out/refine_scrape
+SCRAPE_REFINE := --problem problems/scrape.toml --judge models/scrape/judge_demos --sample-limits --n 200 --weight 8 --judge-epochs 3 --seed 1 --train data/scrape/train.h5 --test data/scrape/test.h5 --out out/refine_scrape
 scrape-trust: setup
 	$(BIN)/judgeopt refine $(SCRAPE_REFINE) --rounds 4 --install scrape/refined --overwrite
 	$(BIN)/judgeopt train-generator --problem problems/scrape.toml --judge models/scrape/judge_refined --conditioned --epochs 3000 --threads 2 --out models/scrape/generator_conditioned --overwrite
@@ -97,4 +97,4 @@ scrape-trust: setup
 	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 12 --n 25 --seed 6 --no-baselines --out docs/results/sweep_scrape
 	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --random-limits 12 --n 25 --seed 6 --no-baselines --calibration out/scrape_calibration.json --out docs/results/sweep_scrape_calibrated
 	$(BIN)/judgeopt evaluate planners --problem problems/scrape.toml --n 100 --seed 0 --out docs/results/scrape_refined
-	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --judge models/scrape/judge --random-limits 12 --n 25 --seed 6 --no-baselines --methods direct cem --out docs/results/sweep_scrape_demojudge
+	$(BIN)/judgeopt evaluate sweep --problem problems/scrape.toml --judge models/scrape/judge_demos --random-limits 12 --n 25 --seed 6 --no-baselines --methods direct cem --out docs/results/sweep_scrape_demojudge

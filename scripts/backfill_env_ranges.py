@@ -72,7 +72,7 @@ NOT_SHIPPED: dict[str, object] = {
 REFINE_DRAWS = {
     "judge_refined": ("problems/paper_sim.toml", {"mu": [(0.05, 4.0), (1.0, 4.0)]},
                       "docs/remedies.md: problems/paper_sim.toml, --mu 0.05,4 in rounds 1-4 and --mu 1,4 in 5-7"),
-    "judge_refined_tcn": ("problems/paper_sim.toml", {"mu": [(0.05, 4.0), (1.0, 4.0)]},
+    "experiments/judge_refined_tcn": ("problems/paper_sim.toml", {"mu": [(0.05, 4.0), (1.0, 4.0)]},
                           "docs/remedies.md: problems/paper_sim.toml, --mu 0.05,4 in rounds 1-4 and --mu 1,4 in 5-7"),
     "scrape/judge_refined": ("problems/scrape.toml", {}, "Makefile scrape-trust: problems/scrape.toml's ranges"),
 }
@@ -83,7 +83,7 @@ EARLIER_LIMITS = {
     "judge_refined": ({"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)},
                       "rounds 1-4 drew from the wide ranges qdot_max 0.22-1.2, f_min 0-10, f_max 11-30 "
                       "(docs/remedies.md), rounds 5-7 from refine_config's"),
-    "judge_refined_tcn": ({"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)},
+    "experiments/judge_refined_tcn": ({"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)},
                           "rounds 1-4 drew from the wide ranges qdot_max 0.22-1.2, f_min 0-10, f_max 11-30 "
                           "(docs/remedies.md), rounds 5-7 from refine_config's"),
     # Makefile scrape-trust: rounds 1-4 and 5-6 both with the scrape's wide ranges, which refine_config records

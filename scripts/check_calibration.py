@@ -28,7 +28,7 @@ def main() -> None:
     rows = [r for f in sorted(Path(args.round, "partial").glob("*.json")) for r in json.loads(f.read_text())
             if r["method"] == args.method]
     cal = next(c for c in load_calibration(args.calibration).values()
-               if c.method == args.method and "judge_default" in c.description)
+               if c.method == args.method and "judge_demos_tcn" in c.description)
     env = np.array([r["env"] for r in rows])
     pred = np.array([r["predicted"] for r in rows])
     sim = np.array([r["success"] for r in rows], float)

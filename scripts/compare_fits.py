@@ -23,7 +23,7 @@ from judgeopt.files import resolve
 from judgeopt.judge.evaluate import evaluate_judge
 from judgeopt.judge.store import load_judge
 from judgeopt.planners.problem import load_problem
-from judgeopt.planners.solve import Planners
+from judgeopt.planners.loaded import Planners
 from judgeopt.tasks import get_task
 
 VARIANTS = {"crop": ["--fit", "crop"], "resample": ["--fit", "resample"], "crop45": ["--fit", "crop", "--horizon", "45"]}

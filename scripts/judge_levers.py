@@ -80,7 +80,7 @@ def variants(model, ensemble, x: np.ndarray, e: np.ndarray, seed: int) -> dict[s
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--judge", default="models/judge_default")
+    ap.add_argument("--judge", default="models/judge_demos_tcn")
     ap.add_argument("--ensemble", default="models/judge_ensemble", help="'' : none")
     ap.add_argument("--data", nargs="+", required=True)
     ap.add_argument("--seed", type=int, default=0, help="seed of the noise and dropout draws (default 0)")

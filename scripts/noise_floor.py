@@ -193,7 +193,7 @@ def main() -> None:
     ap.add_argument("--eps", type=float, help="perturbation size (default: 1e-9 relative for command, 1e-7 m for object)")
     ap.add_argument("--n", type=int, help="first N demonstrations (default: all)")
     ap.add_argument("--seed", type=int, default=0, help="seed of the perturbations and the bootstrap (default 0)")
-    ap.add_argument("--judge", default="models/judge_default", help="judge to score on the replays ('' : none)")
+    ap.add_argument("--judge", default="models/judge_demos_tcn", help="judge to score on the replays ('' : none)")
     ap.add_argument("--out", help="result JSON (default out/noise_floor/<stem>_<perturb>_r<R>[_n<N>].json)")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--combine", nargs="+", metavar="NPZ", help="pool these earlier results on --data (no replays)")

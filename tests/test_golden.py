@@ -34,7 +34,12 @@ def test_plans_equal_the_recorded_ones():
 REPO = GOLDEN.parents[1]
 
 
-@pytest.mark.parametrize("path", sorted(p for p in (REPO / "models").glob("judge_*.json") if ".history" not in p.name), ids=lambda p: p.stem)
+#: the scoop's models: the shipped ones and those kept for a table or an experiment (models/experiments/)
+SCOOP_MODELS = (REPO / "models", REPO / "models" / "experiments")
+
+
+@pytest.mark.parametrize("path", sorted(p for d in SCOOP_MODELS for p in d.glob("judge_*.json")
+                                        if ".history" not in p.name), ids=lambda p: p.stem)
 def test_shipped_judges_load(path):
     from judgeopt.judge.store import load_judge
 
@@ -42,7 +47,8 @@ def test_shipped_judges_load(path):
     assert meta["config"]["channels"] == ["y", "ydot", "f"]
 
 
-@pytest.mark.parametrize("path", sorted((REPO / "models").glob("generator_*.json")), ids=lambda p: p.stem)
+@pytest.mark.parametrize("path", sorted(p for d in SCOOP_MODELS for p in d.glob("generator_*.json")),
+                         ids=lambda p: p.stem)
 def test_shipped_generators_load(path):
     from judgeopt.planners.store import load_generator
 
@@ -74,7 +80,7 @@ def test_the_shipped_calibration_still_covers_the_main_command():
     not silently orphan them (the main command's probabilities would fall back to the judge's)."""
     from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(qdot_max=0.4)
     results = Planners.load(problem, ("amortized", "direct")).solve(problem.nominal_env())

@@ -22,16 +22,28 @@ def _run(*cmd, **kw) -> subprocess.CompletedProcess:
     return r
 
 
-@pytest.mark.slow
-def test_the_wheel_solves_from_another_folder(tmp_path):
-    # build from a copy of what git would ship, so nothing left in build/ can leak into the wheel
+def _wheel(tmp_path: Path) -> Path:
+    """A wheel built from a copy of what git would ship, so nothing left in build/ can leak into it."""
     src = tmp_path / "src"
     ignore = shutil.ignore_patterns("__pycache__", "*.pyc", "*.history.*", "*.png")
     shutil.copytree(REPO / "judgeopt", src / "judgeopt", ignore=ignore)
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(REPO / name, src / name)
     _run(sys.executable, "-m", "pip", "wheel", "-q", "--no-deps", "--no-build-isolation", "-w", tmp_path / "dist", src)
-    wheel = next((tmp_path / "dist").glob("judgeopt-*.whl"))
+    return next((tmp_path / "dist").glob("judgeopt-*.whl"))
+
+
+def test_the_wheel_says_the_package_is_typed(tmp_path):
+    """PEP 561: py.typed (and the stub that types the lazy top-level names) ship in the wheel."""
+    import zipfile
+
+    names = set(zipfile.ZipFile(_wheel(tmp_path)).namelist())
+    assert {"judgeopt/py.typed", "judgeopt/__init__.pyi"} <= names
+
+
+@pytest.mark.slow
+def test_the_wheel_solves_from_another_folder(tmp_path):
+    wheel = _wheel(tmp_path)
 
     # a fresh environment that sees the installed torch (and the rest) but not the checkout
     venv = tmp_path / "venv"
@@ -53,3 +65,16 @@ def test_the_wheel_solves_from_another_folder(tmp_path):
     assert all(p["max_constraint_violation"] < 1e-2 for p in out["results"])
     assert Path(out["judge"]).is_relative_to(venv)
     assert not list(elsewhere.iterdir()), "solve wrote into the working folder"
+
+
+def test_the_wheel_carries_the_models_running_needs_and_no_experiment(tmp_path):
+    """Every shipped model travels in the wheel; those kept only to reproduce a table or an
+    experiment (models/experiments/, docs/models.md) stay in the checkout."""
+    import zipfile
+
+    packed = {n for n in zipfile.ZipFile(_wheel(tmp_path)).namelist() if n.startswith("judgeopt/models/")}
+    models = REPO / "judgeopt" / "models"
+    wanted = {f"judgeopt/models/{p.relative_to(models).as_posix()}" for p in models.rglob("*")
+              if p.suffix in (".pt", ".json") and ".history" not in p.name and "experiments" not in p.parts}
+    assert packed == wanted, (sorted(packed - wanted), sorted(wanted - packed))
+    assert any("/experiments/" in str(p) for p in models.rglob("*.pt")), "no experiment model to leave out"

@@ -78,12 +78,54 @@ def _generator(p: Path) -> dict[str, Any]:
 
     gen, meta = load_generator(p)
     ranges = conditioned_ranges(meta)
-    return {"path": str(p), "parameters": sum(x.numel() for x in gen.parameters()), "task": meta["problem"].get("task"),
+    recorded = ("judge", "loss_judge", "metrics", "fine_tuned_from", "command", "source", "seed", "created",
+                "package_version", "about", "weights_sha256")
+    return {"path": str(p), "parameters": sum(x.numel() for x in gen.parameters()),
+            "task": gen.problem.task,  # files from before generators recorded it hold the default task's
             "problem": {k: meta["problem"].get(k) for k in ("name", "qdot_max", "f_min", "f_max", "q_end", "steps", "dt")},
             "conditioned_on": None if ranges is None else {k: list(getattr(ranges, k)) for k in CONDITION_NAMES},
-            "judge_sha256": meta.get("judge", {}).get("weights_sha256"), "metrics": meta.get("metrics"),
-            "fine_tuned_from": meta.get("fine_tuned_from"), "command": meta.get("command"), "seed": meta.get("seed"),
-            "created": meta.get("created"), "weights_sha256": meta.get("weights_sha256")}
+            "judge_sha256": meta.get("judge", {}).get("weights_sha256"), **{k: meta.get(k) for k in recorded}}
+
+
+def format_generator(info: dict[str, Any]) -> str:
+    """A generator's summary in lines a reader scans: what it plans for, against which judge, its
+    held-out check, what made it (the model it continued only where that is another one)."""
+    from judgeopt.model_index import shipped_judge
+
+    pr, m = info["problem"], info.get("metrics") or {}
+    judge = info.get("judge") or {}
+    sha = judge.get("weights_sha256")
+    against = shipped_judge(sha) or f"{judge.get('path')}, a judge not shipped (sha256 {str(sha)[:12]}...)"
+    lj = info.get("loss_judge")
+    if lj:
+        against = f"the pessimistic score of {lj['ensemble']} (mean - {lj['pessimism']:g} std); judge record {against}"
+    ranges = info.get("conditioned_on")
+    end = "its end left free" if pr["q_end"] == "free" else f"ends at {pr['q_end']}"
+    plans = (f"{pr['name']}: q̇_max {pr['qdot_max']} m/s, f {pr['f_min']}-{pr['f_max']} N, {end}, "
+             f"{pr['steps']} steps of {pr['dt']} s")
+    made_with = [f"judgeopt {info['package_version']}" if info.get("package_version") else None, info.get("created")]
+    lines = [f"{info['path']}  ({', '.join(['generator'] + [x for x in made_with if x])})",
+             f"  network        : {info['parameters']} parameters",
+             f"  task           : {info['task']}",
+             f"  plans for      : {plans}",
+             "  conditioned on : " + (", ".join(f"{k} {lo:g}-{hi:g}" for k, (lo, hi) in ranges.items()) if ranges
+                                      else "nothing: these limits only"),
+             f"  against        : {against}"]
+    if m.get("predicted_success_mean") is not None:
+        drawn = "environments and limits" if m.get("limits_sampled_from_ranges") else "environments"
+        lines.append(f"  held out       : the judge's mean p {m['predicted_success_mean']:.3f} on {m.get('n_envs')} "
+                     f"fresh {drawn}, worst violation {m.get('max_constraint_violation_max', float('nan')):.1e}")
+    made = info.get("command") or info.get("source")
+    if made:
+        seed = f"  (seed {info['seed']})" if info.get("seed") is not None else ""
+        lines.append(f"  made by        : {made}{seed}")
+    parent = info.get("fine_tuned_from")
+    if parent and Path(str(parent)).name != Path(info["path"]).name:  # its own earlier version is no news
+        lines.append(f"  continued from : {parent}")
+    if info.get("about"):
+        lines.append(f"  note           : {info['about']}")
+    lines.append(f"  weights sha256 : {info['weights_sha256']}")
+    return "\n".join(lines)
 
 
 def _ensemble(p: Path) -> dict[str, Any]:
@@ -183,6 +225,8 @@ def cmd_inspect(args: argparse.Namespace) -> int:
         print(format_model_info(info))
     elif info["kind"] == "dataset":
         print(format_dataset(args.path, info))
+    elif info["kind"] == "generator":
+        print(format_generator(info))
     else:
         print("\n".join([f"{info['path']}  ({info['kind']})", *_lines(info)]))
     return 0

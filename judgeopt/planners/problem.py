@@ -5,14 +5,14 @@ file is found as `problems/<name>.toml` from anywhere, judgeopt.files.resolve). 
 `base = "other.toml"` and change only some values: `paper_sim_slow.toml` is `paper_sim.toml`
 with q̇_max = 0.4. `base` is looked up next to the file, then as the CLI finds a name (a shipped
 `problems/NAME.toml`, with or without `problems/`), so a copied file keeps its base. Every field
-can also be overridden by name (`with_overrides`, and the CLI's `--qdot-max 0.4`, `--y-obj 0.2`,
-`--mu 2.5`).
+can also be overridden by name (`with_overrides`, and the CLI's `--qdot-max 0.4`, and one option
+per environment variable, `--NAME 0.2`).
 
 Environment values are a number (fixed) or a [lo, hi] range. Training the generator and
 evaluation sample ranges; a single solve uses a fixed value, else the range's midpoint.
 [environment] holds what the planners and the judge read; [world] the task's other variables,
-which only the simulated world has (paper_real.toml's judge reads y_obj, the simulator also
-needs mu); a variable in neither has the task's nominal value (`world_env`).
+which only the simulated world has (a judge may read fewer variables than the simulator
+needs: paper_real.toml's); a variable in neither has the task's nominal value (`world_env`).
 """
 
 from __future__ import annotations
@@ -28,13 +28,12 @@ from typing import Any
 
 import numpy as np
 
+from judgeopt.errors import BadInput, Infeasible, UsageError
 from judgeopt.files import PACKAGE, resolve
 from judgeopt.formats.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
-#: a terminal position that is "wherever the object is" (the scoop's; any environment variable may be named)
-Y_OBJ = "y_obj"
 #: a terminal position left to the planner
 FREE = "free"
 #: the direct solve's objectives (Problem.objective)
@@ -44,15 +43,15 @@ AXIS_FIELDS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "q_end",
 FORCE_FIELDS = ("f_min", "f_max")
 
 
-class ProblemError(ValueError):
+class ProblemError(UsageError, ValueError):
     """A problem file or override that is malformed or inconsistent."""
 
 
-class ProblemFileError(ProblemError):
+class ProblemFileError(BadInput, ProblemError):
     """A problem file that cannot be read, or holds values that are wrong (the message names the file)."""
 
 
-class InfeasibleProblemError(ProblemError):
+class InfeasibleProblemError(Infeasible, ProblemError):
     """Constraints that no trajectory can satisfy; `conflict` names them."""
 
     def __init__(self, message: str, conflict: list[str]):
@@ -72,8 +71,10 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region", "replan_period",
                "replan_trigger"),
     "generator": ("P", "Q", "R"),
-    "models": ("judge", "ensemble", "trust_model", "calibration"),
+    "models": ("judge", "generator_model", "ensemble", "trust_model", "calibration"),
 }
+#: how a model named without its suffix may lie on disk (a judge's .pt and .json, a folder, a file)
+MODEL_SUFFIXES = ("", ".json", ".pt")
 #: field -> its section
 SECTION_OF: dict[str, str] = {k: section for section, names in SECTIONS.items() for k in names}
 #: sections read in their old place, with a note: old section -> the fields it held
@@ -96,7 +97,7 @@ FIELD_HELP: dict[str, str] = {
     "qdot_max": "highest velocity in m/s",
     "f_min": "lowest commanded force in N",
     "f_max": "highest commanded force in N",
-    "q_end": "end position in m, an environment variable's name (e.g. y_obj) or free",
+    "q_end": "end position in m, the name of the environment variable whose value it is, or free",
     "qdot_end": "end velocity in m/s",
     "P": "weight of the judge's log-probability (eq. 3)",
     "Q": "generator: weight of limit violations (eq. 4)",
@@ -114,6 +115,8 @@ FIELD_HELP: dict[str, str] = {
     "replan_trigger": "receding planner: judge (re-solve only when the judge, reading what was measured and the "
                       "plan's rest, falls below p_target) or always (re-solve every period)",
     "judge": "judge model (path stem or models/NAME)",
+    "generator_model": "the generator that goes with the judge (path stem or models/NAME), used where it fits the "
+                       "limits and the judge; otherwise (or left empty) one is found by its metadata",
     "ensemble": "ensemble folder for pessimistic planning",
     "trust_model": "trust-region model (path stem)",
     "calibration": "calibration file (JSON) for the predicted success",
@@ -128,7 +131,8 @@ class Motion:
 
     Position, velocity and terminal fields hold one value per position axis of the task, or one
     value for every axis; f_min and f_max one per force channel, or one for all. q_end is a
-    number, the name of an environment variable (the scoop's "y_obj") or "free"."""
+    number, the name of an environment variable or "free"; by default the default task's
+    (`Task.default_q_end`)."""
 
     task: str = DEFAULT_TASK
     steps: int = DEFAULT_HORIZON
@@ -141,7 +145,7 @@ class Motion:
     qdot_max: float | list[float] = 1.0
     f_min: float | list[float] = 7.5
     f_max: float | list[float] = 22.5
-    q_end: float | str | list[float | str] = Y_OBJ
+    q_end: float | str | list[float | str] = field(default_factory=lambda: get_task(DEFAULT_TASK).default_q_end)
     qdot_end: float | list[float] = 0.0
     # smoothing (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s): keeps both planners away from
     # bang-bang plans the controller cannot follow
@@ -193,6 +197,9 @@ class ModelRefs:
     # predicted success recalibrated on the planners' replayed outcomes (judgeopt calibrate); used where
     # the file has the planner's setting, ignored where it is missing
     calibration: str | None = "models/calibration_default.json"
+    # the generator trained for this problem against its judge (judgeopt.planners.store.find_generator checks it
+    # fits); empty: one is found by its metadata (`judgeopt models` lists which)
+    generator_model: str = ""
 
 
 #: the problem's parts (attribute -> class); every field of a part is also read from the problem by name
@@ -204,7 +211,7 @@ FIELDS: tuple[str, ...] = ("name", "description", "task", "steps", "dt", "q0", "
                            "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "environment", "world", "P", "Q", "R",
                            "acc_weight", "force_rate_weight", "objective", "p_target", "p_min", "max_iter", "tol",
                            "replan_period", "replan_trigger", "judge", "ensemble", "pessimism", "trust_region",
-                           "trust_model", "calibration", "frame", "source")
+                           "trust_model", "calibration", "generator_model", "frame", "source")
 #: each field's type, for parsing overrides from text
 FIELD_TYPES: dict[str, Any] = {f.name: f.type for cls in PARTS.values() for f in dataclasses.fields(cls)}
 
@@ -308,6 +315,9 @@ class Problem:
             raise ProblemError(f"trust_region = {self.trust_region}{where} must be a positive distance (or left out)")
         if not isinstance(self.max_iter, int) or self.max_iter < 1:
             raise ProblemError(f"max_iter = {self.max_iter!r}{where} must be a positive whole number")
+        if not isinstance(self.generator_model, str):
+            raise ProblemError(f"generator_model = {self.generator_model!r}{where} must be a model path such as "
+                               "\"models/generator_paper_sim\" (or \"\" to let its metadata find one)")
         if not self.environment:
             raise ProblemError(f"the environment{where} names no variables")
         unknown = [k for k in self.environment if k not in task.env_names]
@@ -505,6 +515,8 @@ class Problem:
         """Every field by name, as records and setting ids have held it since before the split
         (the frame left out: where a plan goes, not what is planned; plan JSON records it)."""
         d = {k: copy.deepcopy(getattr(self, k)) for k in FIELDS if k != "frame"}
+        if not self.generator_model:  # records of problems without one read as before
+            del d["generator_model"]
         if not self.world:  # records of problems without one read as before
             del d["world"]
         d["environment"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.environment.items()}
@@ -560,7 +572,11 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
     try:
         raw = tomllib.loads(path.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ProblemError(f"{path}: not valid TOML ({exc})") from None
+        raise ProblemError(f"{path}: not a problem file, not valid TOML ({exc}); give one like "
+                           "problems/paper_sim.toml") from None
+    if not raw:
+        raise ProblemError(f"{path}: an empty problem file; start it with base = \"problems/paper_sim.toml\" "
+                           "and give what differs")
     flat: dict[str, Any] = {}
     if "base" in raw:
         flat = _read_toml(_base_path(path, raw.pop("base")), seen + (path,))
@@ -576,7 +592,7 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
                     raise ProblemError(f"{path}: {k} belongs in [{SECTION_OF[k]}], not [{key}]: move it there")
                 elif k not in SECTIONS.get(key, ()):
                     raise ProblemError(f"{path}: unknown key {k!r} in [{key}]; allowed: {list(SECTIONS[key])}")
-                flat[k] = v
+                flat[k] = _model_path(path, v) if key == "models" else v
         elif key == "environment":
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [environment] must be a table")
@@ -598,6 +614,15 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
         mine = raw.get("world", {})
         flat["world"] = {k: v for k, v in flat["world"].items() if k not in flat["environment"] or k in mine}
     return flat
+
+
+def _model_path(path: Path, value: Any) -> Any:
+    """A model named in a problem file: beside the file if it is there (a file outside the checkout
+    naming its own `models/x`), else kept as written for `resolve` (the shipped models)."""
+    if not isinstance(value, str) or not value or Path(value).is_absolute():
+        return value
+    local = path.parent / value
+    return str(local) if any(local.with_name(local.name + s).exists() for s in MODEL_SUFFIXES) else value
 
 
 def _base_path(path: Path, base: Any) -> Path:

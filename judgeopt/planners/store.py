@@ -2,7 +2,9 @@
 
 The JSON holds the whole problem it was trained for and the judge's weights hash, so a
 solve can tell whether a shipped generator fits the limits asked for (`matches`) and
-which judge it was trained against.
+which judge it was trained against. A problem file names the generator that goes with its
+judge ([models] generator_model); `find_generator` uses it where it fits, and searches the
+models folder by metadata only where it names none or no longer fits (other limits, another judge).
 
 A conditioned generator (issue 6) also records `"conditioned": {"names": [...], "ranges":
 {name: [lo, hi]}}`, the limits it reads as inputs and the ranges it was trained over; its
@@ -18,6 +20,8 @@ from pathlib import Path
 from typing import Any
 
 from judgeopt import __version__
+from judgeopt.errors import BadInput
+from judgeopt.files import resolve
 from judgeopt.formats.header import header
 from judgeopt.formats.model_files import model_paths, read_meta, read_weights, write_model
 from judgeopt.planners.generator import Generator, GeneratorConfig
@@ -28,7 +32,7 @@ FORMAT = "judgeopt-generator"
 VERSION = 2  # the newest this reads; 1: per-limit generators, 2: conditioned ones
 
 
-class GeneratorFileError(ProblemError):
+class GeneratorFileError(BadInput, ProblemError):
     """A generator file that is missing, corrupt or inconsistent with its metadata."""
 
 
@@ -98,11 +102,53 @@ def matches(meta: dict[str, Any], problem: Problem, judge_sha: str | None = None
     return judge_sha is None or meta.get("judge", {}).get("weights_sha256") == judge_sha
 
 
+def misfit(meta: dict[str, Any], problem: Problem, judge_sha: str | None = None) -> str | None:
+    """Why a generator cannot plan for this problem (and judge), in a few words; None: it can."""
+    if matches(meta, problem, judge_sha):
+        return None
+    if matches(meta, problem):
+        return "it was trained against another judge"
+    trained = Problem.from_dict(meta["problem"])
+    if trained.task != problem.task:
+        return f"it was trained for task {trained.task!r}"
+    if trained.env_names != problem.env_names:
+        return f"it reads the environment {list(trained.env_names)}, the problem {list(problem.env_names)}"
+    lj = meta.get("loss_judge")
+    if lj and not (problem.ensemble and Path(lj["ensemble"]).name == Path(problem.ensemble).name
+                   and lj["pessimism"] == problem.pessimism):
+        return f"it was trained against {lj['ensemble']} - {lj['pessimism']:g} std, which the problem does not name"
+    ranges = conditioned_ranges(meta)
+    spans = "" if ranges is None else ", ".join(f"{k} {getattr(ranges, k)[0]:g}-{getattr(ranges, k)[1]:g}"
+                                                for k in CONDITION_NAMES)
+    return "it was trained for other limits" + (f" (conditioned on {spans})" if spans else "")
+
+
+def named_generator(problem: Problem, judge_sha: str | None = None) -> Path | None:
+    """The generator the problem file names ([models] generator_model), if it fits these limits and
+    this judge; None where it names none, or the limits or the judge were changed so that it no
+    longer fits (`misfit` says why). A named file that is missing or damaged is an error."""
+    if not problem.generator_model:
+        return None
+    path = resolve(problem.generator_model, (".json",))
+    try:
+        meta = load_generator_meta(path)
+    except GeneratorFileError as exc:
+        raise GeneratorFileError(f"{problem.source or problem.name}: generator_model = {problem.generator_model!r}: "
+                                 f"{exc}; name a generator that exists, or set it to \"\"") from None
+    return path if misfit(meta, problem, judge_sha) is None else None
+
+
 def find_generator(folder: str | Path, problem: Problem, judge_sha: str | None = None) -> Path | None:
-    """A generator in `folder` or its subfolders (a task's own, e.g. models/scrape/) for this
-    problem's task and limits (and judge), by preference: one trained
-    against the problem's ensemble's pessimistic score (when it names an ensemble), one trained
-    for exactly these limits, one conditioned on ranges that contain them; then by name."""
+    """The generator for this problem's task and limits (and judge) among those in `folder` and its
+    subfolders (a task's own, e.g. models/scrape/): the one the problem file names where it lies there
+    and fits (`named_generator`); else, as a checked fallback (no generator named, limits or judge
+    changed, e.g. `Planners.with_limits`, or another folder searched: `solve --models DIR`), one
+    whose metadata fits, by preference: one trained against the problem's ensemble's pessimistic
+    score (when it names an ensemble), one trained for exactly these limits, one conditioned on
+    ranges that contain them; then by name."""
+    named = named_generator(problem, judge_sha)
+    if named is not None and Path(folder).resolve() in named.resolve().parents:
+        return named
     found = []
     for js in sorted(Path(folder).rglob("*.json")):
         try:

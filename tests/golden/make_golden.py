@@ -23,7 +23,7 @@ CASES = [
     ("problems/paper_sim.toml", {}, [(0.12, 1.2), (0.20, 2.0), (0.27, 2.9)]),
     ("problems/paper_sim_slow.toml", {}, [(0.15, 1.5), (0.25, 2.5)]),
     ("problems/paper_sim.toml", {"f_max": 14.0}, [(0.14, 1.1), (0.22, 2.4)]),
-    ("problems/paper_sim.toml", {"judge": "models/judge_yobj_only"}, [(0.18, 2.0)]),
+    ("problems/paper_sim.toml", {"judge": "models/experiments/judge_yobj_only"}, [(0.18, 2.0)]),
 ]
 METHODS = ("amortized", "direct")
 
@@ -31,7 +31,7 @@ METHODS = ("amortized", "direct")
 def plans() -> tuple[list[dict], dict[str, np.ndarray]]:
     from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     cases, arrays = [], {}
     for i, (path, overrides, envs) in enumerate(CASES):

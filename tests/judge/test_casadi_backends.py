@@ -154,7 +154,7 @@ def test_direct_solve_with_l4casadi32_matches_torch32(tmp_path):
     from judgeopt.planners.direct import DirectPlanner
     from judgeopt.planners.problem import load_problem
 
-    judge = load_judge(resolve("models/judge_default"))[0]
+    judge = load_judge(resolve("models/judge_demos_tcn"))[0]
     problem = load_problem(resolve("problems/paper_sim.toml"))
     env = {"y_obj": 0.22, "mu": 2.5}
     out = {}

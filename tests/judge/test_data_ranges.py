@@ -81,7 +81,7 @@ def test_a_per_axis_limit_is_checked_per_element():
 
 
 def test_an_old_file_without_ranges_gives_no_phrase():
-    old = json.loads(resolve("models/judge_default.json").read_text())
+    old = json.loads(resolve("models/judge_demos_tcn.json").read_text())
     del old["train_data"]["env_ranges"], old["train_data"]["env_ranges_source"]  # as it was before
     for meta in (old, {"train_data": "data/train.h5"}, {}, {"refine_config": {"limit_ranges": None}}):
         assert data_ranges(meta) == {}
@@ -172,7 +172,7 @@ def test_no_shipped_problem_is_outside_its_own_judges_data():
 def test_inspect_shows_what_a_judge_learnt_from(capsys):
     from judgeopt.cli import main
 
-    assert main(["inspect", "models/judge_default"]) == 0
+    assert main(["inspect", "models/judge_demos_tcn"]) == 0
     assert "learnt from    : y_obj 0.10-0.28 m, mu 1.0-3.0\n" in capsys.readouterr().out
     assert main(["inspect", "models/judge_refined"]) == 0
     text = capsys.readouterr().out

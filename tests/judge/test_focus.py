@@ -10,7 +10,7 @@ from judgeopt.judge.errors import JudgeError
 from judgeopt.judge.focus import JudgeFocus
 from judgeopt.judge.store import IncompatibleJudgeError, load_judge
 
-JUDGE = "models/judge_default"
+JUDGE = "models/judge_demos_tcn"
 BAND = (0.3, 0.7)
 
 

@@ -32,19 +32,19 @@ def test_install_needs_a_finished_round(tmp_path):
 def test_one_round_aggregates_fine_tunes_resumes_and_installs(tmp_path):
     problem = load_problem(resolve("problems/paper_sim.toml"))
     cfg = RefineConfig(rounds=1, n=2, judge_epochs=1, chunk=1)
-    args = (problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_default", None, tmp_path / "out", cfg)
+    args = (problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_demos_tcn", None, tmp_path / "out", cfg)
     figs = refine(*args, n_jobs=1, progress=False)
     assert [(f["round"], f["method"], f["n"]) for f in figs] == [(1, "direct", 2)]
     outcomes = load(tmp_path / "out" / "round_1" / "outcomes.h5")
     assert outcomes.n == 2 and set(outcomes.labels) <= {0, 1} and outcomes.responses.shape == (2, 31, 3)
     summary = json.loads((tmp_path / "out" / "round_1" / "summary.json").read_text())
     meta = json.loads(Path(summary["judge"] + ".json").read_text())
-    assert meta["fine_tuned_from"].endswith("judge_default") and meta["train_data"]["planner_outcomes"] == 2
+    assert meta["fine_tuned_from"].endswith("judge_demos_tcn") and meta["train_data"]["planner_outcomes"] == 2
     # the environments it learnt from: the demonstrations', the round's (within them) and its starting judge's
     from judgeopt.judge.data_ranges import env_ranges_of, union
 
     envs = union(env_ranges_of(load(ROOT / "data" / "train.h5")), env_ranges_of(outcomes),
-                 load_judge_meta(ROOT / "models" / "judge_default")["train_data"]["env_ranges"])
+                 load_judge_meta(ROOT / "models" / "judge_demos_tcn")["train_data"]["env_ranges"])
     assert meta["train_data"]["env_ranges"] == envs == {"y_obj": [0.1, 0.28], "mu": [1.0, 3.0]}
     assert "limit_ranges" not in meta["train_data"]  # no limits sampled, none recorded
     # a rerun finds the round finished and recomputes nothing
@@ -72,7 +72,7 @@ def test_generator_fine_tuning_starts_from_a_copy():
     from judgeopt.planners.store import load_generator
 
     problem = load_problem(resolve("problems/paper_sim.toml"))
-    judge, _ = load_judge(ROOT / "models" / "judge_default")
+    judge, _ = load_judge(ROOT / "models" / "judge_demos_tcn")
     init, _ = load_generator(ROOT / "models" / "generator_paper_sim")
     before = {k: v.clone() for k, v in init.state_dict().items()}
     tuned, _ = train_generator(problem, judge, tc=GeneratorTrainConfig(epochs=2, progress=False), init=init)
@@ -87,7 +87,7 @@ def test_a_round_with_sampled_limits_plans_each_environment_under_its_own(tmp_pa
 
     problem = load_problem(resolve("problems/paper_sim.toml"))
     cfg = RefineConfig(rounds=1, n=3, judge_epochs=1, chunk=3, limit_ranges=WIDE_LIMITS)
-    refine(problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_default", None, tmp_path, cfg, n_jobs=1,
+    refine(problem, ROOT / "data" / "train.h5", ROOT / "models" / "judge_demos_tcn", None, tmp_path, cfg, n_jobs=1,
            progress=False)
     rows = json.loads(next((tmp_path / "round_1" / "partial").glob("*.json")).read_text())
     limits = [r["limits"] for r in rows]

@@ -34,7 +34,7 @@ def label(csv_text: str) -> str:
 @needs_data
 def test_a_round_runs_on_recorded_executions(tmp_path, capsys):
     problem = load_problem(resolve("problems/paper_sim.toml"))
-    args = (problem, small_train(tmp_path), REPO / "models" / "judge_default", None, tmp_path / "out", CFG)
+    args = (problem, small_train(tmp_path), REPO / "models" / "judge_demos_tcn", None, tmp_path / "out", CFG)
     assert refine(*args, n_jobs=1, progress=False, plans_only=True) == []
     plans = tmp_path / "out" / "round_1" / "plans"
     manifest = json.loads((plans / "manifest.json").read_text())

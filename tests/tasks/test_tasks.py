@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from judgeopt.cli import main
-from judgeopt.tasks import EnvironmentRangeError, TaskError, get_task, register_task, task_names
+from judgeopt.tasks import (EnvironmentRangeError, TaskError, get_task, register_task, task_names,
+                            unregister_task)
 from judgeopt.tasks.base import with_setting
 from judgeopt.tasks.scoop import ScoopTask
 from judgeopt.trajectory import Channel, PlanError
@@ -39,7 +40,11 @@ def test_a_registered_task_replaces_nothing_else():
         name = "tiny"
 
     register_task("tiny", Tiny)
-    assert "tiny" in task_names() and get_task("tiny").channel_names == ("y", "ydot", "f")
+    try:
+        assert "tiny" in task_names() and get_task("tiny").channel_names == ("y", "ydot", "f")
+    finally:
+        unregister_task("tiny")
+    assert "tiny" not in task_names() and "scoop" in task_names()
 
 
 def test_settings_are_set_by_dotted_name_with_their_type():
