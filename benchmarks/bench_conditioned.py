@@ -32,7 +32,7 @@ _CACHE: dict = {}
 
 
 def _planners(problem, generator: str):
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     key = (json.dumps(problem.to_dict(), sort_keys=True), generator)
     if key not in _CACHE:

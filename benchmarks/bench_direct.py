@@ -40,7 +40,7 @@ from judgeopt.files import resolve
 from judgeopt.judge.casadi_fn import build_casadi_judge
 from judgeopt.planners.direct import DirectOptions, DirectPlanner
 from judgeopt.planners.problem import load_problem
-from judgeopt.planners.solve import Planners
+from judgeopt.planners.loaded import Planners
 
 PROBLEMS = ["problems/paper_sim.toml", "problems/paper_sim_slow.toml", "problems/scrape.toml"]
 #: the earlier solve (eq. 3 with L-BFGS, l4casadi) and each lever moved from it, one at a time
@@ -98,7 +98,7 @@ def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: boo
         sim = get_task(problem.task).simulator()
     guesses, gen_times, gen_ok = [], [], []
     for env in envs:
-        r = planners.amortized.solve(env)
+        r = planners["amortized"].solve(env)
         guesses.append(r.plan)
         gen_times.append(r.solve_time_s)
         gen_ok.append(bool(sim.simulate(r.plan, env).success) if sim else None)
@@ -106,9 +106,9 @@ def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: boo
     judges: dict[str, object] = {}
     for text in variants:
         over, backend, opts = parse_variant(text)
-        backend = backend or planners.direct.cjudge.backend
+        backend = backend or planners["direct"].cjudge.backend
         if backend not in judges:
-            judges[backend] = (planners.direct.cjudge if backend == planners.direct.cjudge.backend
+            judges[backend] = (planners["direct"].cjudge if backend == planners["direct"].cjudge.backend
                                else build_casadi_judge(planners.judge, backend=backend))
         direct = DirectPlanner(problem.with_overrides(**over), planners.judge, judges[backend], DirectOptions(**opts))
         direct.warm_up(cold=True)  # what a first call pays (kernels, imports): the loop is the steady state

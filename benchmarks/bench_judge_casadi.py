@@ -8,7 +8,7 @@ solve's judge before l4casadi32; where torch:float32 or torch32 is among --backe
 times, and the time of a second build (cache hit).
 Backends the architecture does not offer (native and compiled need a CasADi graph) are skipped.
 
-    .venv/bin/python benchmarks/bench_judge_casadi.py [--model models/judge_default | --arch tcn] [--threads 1]
+    .venv/bin/python benchmarks/bench_judge_casadi.py [--model models/judge_demos_tcn | --arch tcn] [--threads 1]
     .venv/bin/python benchmarks/bench_judge_casadi.py --model models/judge_refined --backends torch32,l4casadi32
 
 --cache-dir defaults to a fresh temporary folder so the build times are real builds.
@@ -47,7 +47,7 @@ def timeit(fn, x: np.ndarray, repeat: int) -> float:
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--model", default="models/judge_default", help="saved judge (random default-size one if absent)")
+    p.add_argument("--model", default="models/judge_demos_tcn", help="saved judge (random default-size one if absent)")
     p.add_argument("--arch", choices=list(ARCHS), help="a random default-size judge of this architecture instead")
     p.add_argument("--backends", default="native,compiled,torch,torch:float32,l4casadi,l4casadi32",
                    help=f"comma-separated from {list(BACKENDS)}; torch:float32 for the float32 callback")

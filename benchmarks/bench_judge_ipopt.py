@@ -9,7 +9,7 @@ failure and find the nearest trajectory (scaled per channel) that it judges a su
 with the limited-memory Hessian (the judge has first derivatives only). Reports Ipopt's
 status, iterations, wall time and final logit per backend.
 
-    .venv/bin/python benchmarks/bench_judge_ipopt.py --model models/judge_default --data data/test.h5
+    .venv/bin/python benchmarks/bench_judge_ipopt.py --model models/judge_demos_tcn --data data/test.h5
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from judgeopt.judge.store import load_judge
 
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--model", default="models/judge_default")
+    p.add_argument("--model", default="models/judge_demos_tcn")
     p.add_argument("--data", default="data/test.h5")
     p.add_argument("--backends", default="torch,torch:float32,native,l4casadi")
     p.add_argument("--cases", type=int, default=3, help="number of failing demonstrations to start from")

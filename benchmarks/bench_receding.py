@@ -42,7 +42,7 @@ def work(problem_file: str, qdot_max: float, envs: list[dict[str, float]], world
     from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
     from judgeopt.planners.receding import PLAN_KEPT, RecedingConfig, RecedingPlanner
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
     from judgeopt.tasks import get_task
 
     import torch
@@ -51,7 +51,7 @@ def work(problem_file: str, qdot_max: float, envs: list[dict[str, float]], world
     problem = load_problem(resolve(problem_file)).with_overrides(qdot_max=qdot_max)
     planners = Planners.load(problem, ("amortized", "direct"))
     sim = get_task(problem.task).simulator()
-    receding = RecedingPlanner(planners.direct, RecedingConfig(problem.replan_period, trigger))
+    receding = RecedingPlanner(planners["direct"], RecedingConfig(problem.replan_period, trigger))
     rows = []
     for i, env in enumerate(envs):
         first = planners.solve(env)[1]

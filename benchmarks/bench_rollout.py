@@ -11,7 +11,7 @@
 3. With --focus JUDGE: the same for an active collection (`collect --focus`), timed right after
    the plain one: what judging the candidates adds per kept demonstration.
 
-    python benchmarks/bench_rollout.py [--rollouts 20] [--demos 60] [--jobs -1] [--focus models/judge_default]
+    python benchmarks/bench_rollout.py [--rollouts 20] [--demos 60] [--jobs -1] [--focus models/judge_demos_tcn]
 
 Timings on a shared machine are noisy: compare the ratio, measured side by side, across runs.
 """

@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.common import (CLIError, QUIET, env_range, floats, jobs_option, name_values, out_option, positive,
+from judgeopt.cli.common import (CLIError, QUIET, env_range, file_path, floats, jobs_option, name_values, out_option, positive,
                                  seed_option, threads_option, value_range)
 
 def _table_names() -> list[str]:
@@ -34,7 +34,7 @@ def _env_text(problem) -> str:
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.report import markdown, summarise, write_report
-    from judgeopt.evaluate.tables import run_table, tables
+    from judgeopt.evaluate.tables import run_table, table_planners, tables
     from judgeopt.planners.calibration import calibrate_rows
     from judgeopt.planners.problem import ProblemError, load_problem
     from judgeopt.files import resolve
@@ -67,14 +67,14 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise ProblemError(f"table {args.table!r} is not one of task {problem.task!r}'s ({', '.join(available)}); "
                            "choose another --problem or table")
     table = available[args.table]
-    rows = table.rows()
+    rows = table.rows(table_planners())
     if args.methods:
         rows = [r for r in rows if r.method in args.methods or r.method == "random"]
     if args.rows:
         rows = [r for r in rows if r.name in args.rows]
         if not rows:
             raise ProblemError(f"--rows {args.rows}: no such rows in {args.table} (names: "
-                               f"{[r.name for r in table.rows()]})")
+                               f"{[r.name for r in table.rows(table_planners())]})")
     if args.judge:  # the same table against another judge (e.g. a refined one): every row that plans with one
         from judgeopt.planners.base import REGISTRY
 
@@ -98,7 +98,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, PLANNERS, markdown_sweep, parse_limit_set, plot_sweep,
+    from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, markdown_sweep, parse_limit_set, plot_sweep,
                                          random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
     from judgeopt.planners.calibration import calibrate_rows
@@ -118,7 +118,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         sets = random_limit_sets(args.random_limits, args.seed, ranges)
     else:
         sets = [parse_limit_set(t) for t in (args.limits or DEFAULT_LIMIT_SETS)]
-    rows, notes = sweep_rows(problem, sets, vary, args.models, args.methods or PLANNERS, args.baselines)
+    methods = tuple(args.methods) if args.methods else None
+    rows, notes = sweep_rows(problem, sets, vary, args.models, methods, args.baselines)
     out = Path(args.out or "out/evaluate/sweep")
     calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
@@ -126,7 +127,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     for rs in results.values():  # with the calibration there is now (cached plans may predate it)
         calibrate_rows(rs, calibrators, problem.env_names)
         reassess(rs)
-    summary = summarise_sweep(sets, rows, results, args.methods or PLANNERS)
+    summary = summarise_sweep(sets, rows, results, methods)
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
     title = f"Held-out limit sets ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
     md = markdown_sweep(summary, title)
@@ -142,7 +143,9 @@ def cmd_edge(args: argparse.Namespace) -> int:
     vary = _vary(base, args.vary) if args.vary else None
     cfg = EdgeConfig(**{k: v for k, v in (("limit", args.edge_limit), ("span", args.edge_span),
                                           ("offsets", args.offsets)) if v is not None})
-    methods = tuple(args.methods or ("amortized", "direct"))
+    from judgeopt.planners.base import default_planners
+
+    methods = tuple(args.methods or default_planners())
     out = Path(args.out or "out/evaluate/edge")
     calibrators = _calibrators(base, args.calibration)  # a bad file fails here, before any planning
     rows = []
@@ -199,13 +202,14 @@ def _problem(args: argparse.Namespace) -> Any:
 
 
 def _planned(args: argparse.Namespace, problem: Any, default_out: str) -> tuple[list, list[str], Path, dict]:
-    """One row per --qdot-max and planner (default amortized and direct), each planned for --n
+    """One row per --qdot-max and planner (default: the default planners), each planned for --n
     environments (resumable in OUT/partial/): rows, notes, the output folder and the plans."""
-    from judgeopt.evaluate.robustness import DEFAULT_METHODS, robustness_rows
+    from judgeopt.evaluate.robustness import robustness_rows
     from judgeopt.evaluate.tables import run_table
+    from judgeopt.planners.base import default_planners
 
     qdots = tuple(args.qdot_max or (problem.qdot_max,))
-    rows, notes = robustness_rows(problem, qdots, tuple(args.methods or DEFAULT_METHODS), args.models)
+    rows, notes = robustness_rows(problem, qdots, tuple(args.methods or default_planners()), args.models)
     if not rows:
         raise CLIError(f"no planner to evaluate: {'; '.join(notes)}")
     out = Path(args.out or default_out)
@@ -240,7 +244,7 @@ def cmd_trials(args: argparse.Namespace) -> int:
     problem = _problem(args)
     rows, notes, out, plans = _planned(args, problem, "out/evaluate/trials")
     k = args.trials or 10
-    spread = TrialSpread()
+    spread = TrialSpread.of(problem.task)
     summary = run_trials(problem, {r.key: plans[r.key] for r in rows}, k, args.seed, spread, progress=not args.quiet)
     names = {r.key: r.name for r in rows}
     for s in summary:
@@ -358,6 +362,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     from judgeopt.cli.planners import add_limit_range_arguments
+    from judgeopt.planners.base import default_planners, planner_names
 
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
@@ -367,16 +372,17 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        parents=[out_option("DIR", "output folder, default out/evaluate/TABLE (an unfinished one "
                                            "resumes)"), seed_option(), jobs_option(), threads_option(), QUIET])
     e.add_argument("table", choices=_table_names(),
-                   help="planners: both planners, the CEM and the no-judge baseline (any task); sweep: held-out limit "
-                   "sets, with the no-judge baseline and a feasibility search in simulation; robustness: each "
-                   "planner's plans (default amortized and direct) for the nominal world replayed unchanged under the "
+                   help="planners: every registered planner and the no-judge baseline (any task); sweep: held-out "
+                   "limit sets, with the no-judge baseline and a feasibility search in simulation; robustness: each "
+                   f"planner's plans (default {' and '.join(default_planners())}) for the nominal world replayed "
+                   "unchanged under the "
                    "task's perturbations, one at a time; trials: each planner's plan tried --trials times, the world "
                    "drawn anew each time (a lab's repeated trials); the scoop's table4, "
                    "table5 (the paper's tables) and compare (planners and remedies side by side)")
     e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
                    "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
     e.add_argument("--vary", type=env_range, metavar="NAME=LO,HI", help="sweep: draw this environment variable from "
-                   "LO,HI instead of the problem's range (seeded by the range: e.g. mu=1,3)")
+                   "LO,HI instead of the problem's range (seeded by the range)")
     e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from the "
                    "--*-range ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"))
@@ -399,8 +405,6 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--n", type=positive, default=100, help="environments per row")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
-    from judgeopt.planners.base import planner_names
-
     e.add_argument("--methods", nargs="+", choices=planner_names(),
                    help="planners to include (default all of the table's)")
     e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
@@ -420,11 +424,12 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "the plan (near fitted outcomes in limits, environment and judge's p). Evaluate on another "
                        "--seed to test it.")
     c.add_argument("folders", nargs="+", metavar="DIR", help="evaluation output folders (with partial/*.json)")
-    c.add_argument("--out", default="out/calibration.json", metavar="FILE", help="calibration file: its other settings "
+    c.add_argument("--out", default="out/calibration.json", metavar="FILE", type=file_path,
+                   help="calibration file: its other settings "
                    "are kept unless --replace (the shipped one is models/calibration_default.json)")
     c.add_argument("--min-n", type=positive, default=50, help="fewest outcomes a setting needs")
     c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
-    c.add_argument("--methods", nargs="+", choices=("amortized", "direct", "cem"),
+    c.add_argument("--methods", nargs="+", choices=planner_names(),
                    help="fit only these planners' settings (default: every planner in the folders); a planner left "
                    "out reports the judge's own probability")
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "

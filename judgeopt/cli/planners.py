@@ -12,8 +12,9 @@ from typing import Any
 import numpy as np
 
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path,
-                                 finite, out_option, positive, seed_option, threads_option, value_range)
-from judgeopt.files import refuse_overwrite
+                                 file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
+from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
+from judgeopt.files import refuse_overwrite, resolve
 from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
                                        load_problem)
@@ -52,7 +53,7 @@ def _parser_type(name: str):
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     """--problem FILE, one option per problem field (`--qdot-max 0.4`), the environment by name
-    (`--mu 2`) or as --env NAME=VALUE. Each help names the unit and the default problem's value."""
+    (`--NAME 2`) or as --env NAME=VALUE. Each help names the unit and the default problem's value."""
     from judgeopt.files import resolve
     from judgeopt.planners.problem import FIELD_HELP
 
@@ -70,7 +71,7 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     from judgeopt.tasks import get_task, task_names
 
     variables: dict[str, list] = {}
-    for t in task_names():  # one option per environment variable of any task (--y-obj, --mu, ...)
+    for t in task_names():  # one option per environment variable of any task (--NAME)
         for v in get_task(t).env_vars:
             variables.setdefault(v.name, []).append((t, v))
     for name, owners in variables.items():
@@ -80,11 +81,12 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
                        help=f"{v.description or name}{unit}: one value, or a range to draw from (task "
                        f"{', '.join(t for t, _ in owners)}; default: the problem's)")
     g.add_argument("--env", type=env_assignment, action="append", metavar="NAME=X or NAME=LO,HI",
-                   help="any environment variable by name, e.g. --env mu=2 (the same as --mu 2)")
+                   help=f"any environment variable by name, e.g. --env {example_assignment()} (the same as "
+                   f"{option(example_variable().name)} {example_variable().default:g})")
 
 
 def ranges_given(args: argparse.Namespace, problem: Problem) -> dict[str, tuple[float, float]]:
-    """The environment variables given on the command line as a range (--mu 1.5,2.5, --env mu=1.5,2.5):
+    """The environment variables given on the command line as a range (--NAME LO,HI, --env NAME=LO,HI):
     "somewhere in here", as opposed to the problem file's ranges (what demonstrations and
     evaluations draw from)."""
     named = {k[4:] for k, v in vars(args).items() if k.startswith("env_") and v is not None}
@@ -148,11 +150,30 @@ def _with_method(path: str, method: str, several: bool) -> Path:
     return p.with_name(f"{p.stem}_{method}{p.suffix}") if several else p
 
 
+def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
+    """The calibration, ensemble and trust model named on the command line, checked before any
+    model loads: one missing, a folder where a file belongs or a file of another kind is one line."""
+    if args.set_calibration:
+        from judgeopt.planners.calibration import load_calibration
+
+        load_calibration(resolve(problem.calibration))
+    if args.set_ensemble:
+        from judgeopt.judge.ensemble import is_ensemble
+
+        if not is_ensemble(resolve(problem.ensemble)):
+            raise CLIError(f"--ensemble {args.set_ensemble}: not a judge ensemble (a folder with ensemble.json); make "
+                           "one with `judgeopt train-ensemble --out DIR`", ExitCode.BAD_INPUT)
+    if args.set_trust_model:
+        from judgeopt.planners.trust_region import load_trust_region
+
+        load_trust_region(resolve(problem.trust_model, (".json",)))
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
     from judgeopt.planners import session
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     t0 = time.perf_counter()
     problem = problem_from_args(args)
@@ -163,23 +184,21 @@ def cmd_solve(args: argparse.Namespace) -> int:
     spec = REGISTRY.get(args.method)
     if spec is not None and spec.closed_loop and not args.simulate:
         raise CLIError(f"--method {args.method} plans while the plan is executed in simulation; drop --no-simulate")
-    if args.method == "receding":
-        from judgeopt.planners.receding import RecedingConfig
-
-        RecedingConfig.of(problem).steps(problem.dt, problem.steps)
     try:
         problem.check_feasible(env)
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
     methods, fallback = session.methods_for(problem, args.method, args.generator, args.models, args.simulate)
     several = len(methods) > 1
-    targets = [_with_method(path, m, several) for path in (args.out, args.save_json, args.export) if path
-               for m in methods]
     if args.export:  # its format from the suffix, checked before any solver runs
         from judgeopt.cli.export import export_format
 
         export_format(args.export)
-    refuse_overwrite(targets + ([args.plot] if args.plot else []), args.overwrite)
+    for flag, path in (("--out", args.out), ("--save-json", args.save_json), ("--export", args.export)):
+        if path:  # the message names the option to change
+            refuse_overwrite([_with_method(path, m, several) for m in methods], args.overwrite, flag)
+    refuse_overwrite([args.plot] if args.plot else [], args.overwrite, "--plot")
+    _check_named_models(args, problem)
     planners = Planners.load(problem, methods, generator=args.generator, models_dir=args.models,
                              casadi_backend=args.casadi_backend)
     if fallback:
@@ -267,9 +286,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
                 details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
                 print(f"{r.method}, simulated: {'success' if r.simulated_success else 'FAILURE'}: "
                       f"{task.explain(details)}")
-        for r in results:
-            if r.method == "receding":
-                print(_replan_rows(r))
+        for r in results:  # what each planner has to say about its own result
+            for line in planners[r.method].details(r):
+                print(line)
         uncovered = [r.method for r in results if r.probability_source == "judge"
                      and r.info.get("calibrated_success") is not None]
         if uncovered:
@@ -307,21 +326,9 @@ def _assignments(items: list[str] | None) -> dict[str, float]:
         try:
             out[name] = float(value)
         except ValueError:
-            raise CLIError(f"--simulate-env {item}: {value!r} is not a number (NAME=VALUE, e.g. y_obj=0.22)") from None
+            raise CLIError(f"--simulate-env {item}: {value!r} is not a number (NAME=VALUE, e.g. "
+                           f"{example_assignment()})") from None
     return out
-
-
-def _replan_rows(r: Any) -> str:
-    """The receding planner's log: one line per re-plan."""
-    from judgeopt.planners.receding import PLAN_KEPT
-
-    lines = [f"receding: {r.message}; each re-plan's time, predicted success and Ipopt status:"]
-    for x in r.info["replan_log"]:
-        p = "-" if x["predicted"] is None else f"{x['predicted']:.3f}"
-        dropped = "" if x["kept"] or x["status"] == PLAN_KEPT else " (dropped)"
-        lines.append(f"  t = {x['t']:.2f} s (from {x['k']} measured samples): p {p}, {1000 * x['seconds']:.0f} ms, "
-                     f"{x['iterations']} it, {x['status']}{dropped}")
-    return "\n".join(lines)
 
 
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
@@ -454,23 +461,22 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
     add_problem_arguments(s)
-    from judgeopt.planners.base import RESERVED, planner_names
+    from judgeopt.planners.base import GROUP_ALIASES, GROUPS, REGISTRY, WARM_STARTS, default_planners
 
-    s.add_argument("--method", choices=(*planner_names(), *RESERVED), default="both",
-                   help="both (default): the generator's plan warm-starts the direct solve; cem: the sampling "
-                   "baseline (cross-entropy method over spline commands, same judge); any other registered planner "
-                   "(judgeopt.planners.base.register); all: every one; receding: "
-                   "the direct plan executed in simulation and, every [solver] replan_period (0.1 s), "
-                   "re-solved from what the arm measured (when the judge asks for it: [solver] replan_trigger)")
+    each = "; ".join(f"{n}: {s.description}" for n, s in REGISTRY.items())
+    s.add_argument("--method", choices=(*REGISTRY, *GROUPS, *GROUP_ALIASES), default="default",
+                   help=(f"default (the default): {' and '.join(default_planners())}; all: every planner; or one: "
+                         f"{each} (add your own with judgeopt.planners.base.register); both: the older name of "
+                         "default").replace("%", "%%"))
     s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",
-                   help="simulate in a world that differs from the one planned for (e.g. y_obj=0.22: the object 3 cm "
-                   "further than said); repeatable (default: the world planned for)")
+                   help=f"simulate in a world that differs from the one planned for (e.g. {example_assignment()}: "
+                   "a value other than the planners were told); repeatable (default: the world planned for)")
     s.add_argument("--simulate", action=argparse.BooleanOptionalAction, default=True,
                    help="replay each plan in PyBullet and report the outcome (default: on; about 2 s)")
-    s.add_argument("--save-json", metavar="PATH", help="write the plan with its problem, outcome, residuals and "
+    s.add_argument("--save-json", metavar="PATH", type=file_path, help="write the plan with its problem, outcome, residuals and "
                    "provenance (models' sha256, git commit, command) as one JSON file (one per method: "
                    "NAME_METHOD.json); read back with judgeopt.formats.plan.read_plan_json")
-    s.add_argument("--export", metavar="FILE", help="write the plan for a robot (one per method: NAME_METHOD.EXT): "
+    s.add_argument("--export", metavar="FILE", type=file_path, help="write the plan for a robot (one per method: NAME_METHOD.EXT): "
                    ".csv with the importer's columns, or .mcap with ROS 2 messages along the problem's [frame] "
                    "(pip install 'judgeopt[ros]'); as `judgeopt export` does from a --save-json file")
     s.add_argument("--plot", metavar="FILE", type=figure_path,
@@ -479,14 +485,14 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--models", default="models", metavar="DIR",
                    help="folder searched for generators (models/: $JUDGEOPT_MODELS, then the shipped models)")
     add_backend_argument(s)
-    s.add_argument("--warm-start", choices=("generator", "none"), default="generator",
+    s.add_argument("--warm-start", choices=WARM_STARTS, default=WARM_STARTS[0],
                    help="where the direct solve starts: generator (default: its plan, where a generator covers the "
                    "limits) or none (cold, as for a new task or new limits: a min-jerk move, or where the judge calls that a "
                    "failure its best of a few of the task's own commands)")
     s.add_argument("--env-case", dest="range_case", choices=("worst", "expected"), default="worst",
-                   help="an environment variable given here as a range (--mu 1.5,2.5: somewhere in here): the direct "
-                   "solve plans for the worst case over a grid of it (default) or for the expected success over the "
-                   "grid; the other planners plan for its middle")
+                   help=f"an environment variable given here as a range ({example_range()}: somewhere in here): the "
+                   "direct solve plans for the worst case over a grid of it (default) or for the expected success "
+                   "over the grid; the other planners plan for its middle")
     s.add_argument("--explain", action="store_true", help="also print what the table's judge, success p and verdict "
                    "columns mean")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
@@ -504,11 +510,11 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
     t.add_argument("--epochs", type=positive, default=5000, help="Adam steps")
     t.add_argument("--init", metavar="GENERATOR", help="fine-tune this generator instead of starting from scratch")
     t.add_argument("--batch", type=positive, default=100, help="environments per epoch")
-    t.add_argument("--lr", type=float, default=1e-3, help="Adam learning rate")
+    t.add_argument("--lr", type=number, default=1e-3, help="Adam learning rate")
     t.add_argument("--margin", type=env_assignment, action="append", default=[], metavar="NAME=DELTA",
                    help="also ask the judge to pass each plan with this environment variable shifted by DELTA "
-                   "(the world unlike the one told, e.g. y_obj=0.03: the object 3 cm further); repeatable")
-    t.add_argument("--margin-weight", type=float, default=1.0, metavar="X",
+                   f"(the world unlike the one told, e.g. {example_shift()}); repeatable")
+    t.add_argument("--margin-weight", type=number, default=1.0, metavar="X",
                    help="weight of each --margin term, relative to P (default 1)")
     c = t.add_argument_group("conditioned generator", "one generator for any q̇_max, f_min, f_max in ranges: the "
                              "limits are extra inputs, drawn per training trajectory (uniform)")

@@ -23,11 +23,16 @@ def cmd_refine(args: argparse.Namespace) -> int:
     ranges = limit_ranges_from_args(args, wide_limits(problem.task)) if args.sample_limits else None
     if ranges is not None:
         ranges.check(problem)
-    cfg = RefineConfig(rounds=args.rounds, n=args.n, methods=tuple(args.methods), seed=args.seed,
+    chosen = {"methods": tuple(args.methods)} if args.methods else {}  # default: RefineConfig's
+    cfg = RefineConfig(rounds=args.rounds, n=args.n, **chosen, seed=args.seed,
                        judge_epochs=args.judge_epochs, weight=args.weight, generator_epochs=args.generator_epochs,
                        chunk=args.chunk, limit_ranges=ranges)
     out = Path(args.out)
     generator = resolve(args.generator, (".json",)) if args.generator else None
+    if generator is not None:  # a bad one is one line before the first round starts
+        from judgeopt.planners.store import load_generator_meta
+
+        load_generator_meta(generator)
     figures = refine(problem, resolve(args.train), resolve(problem.judge, (".json",)), generator,
                      out, cfg, test_data=resolve(args.test) if args.test else None, n_jobs=args.jobs,
                      scheduler=args.scheduler, progress=not args.quiet, plans_only=args.plans_only,
@@ -105,8 +110,12 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     add_problem_arguments(r)
     r.add_argument("--rounds", type=positive, default=3, help="rounds of plan, replay, fine-tune")
     r.add_argument("--n", type=int, default=150, help="environments per round")
-    r.add_argument("--methods", nargs="+", choices=("direct", "amortized", "cem"), default=["direct"],
-                   help="planners whose plans are replayed and added")
+    from judgeopt.planners.base import planner_names
+    from judgeopt.refine.loop import judge_only_planners
+
+    r.add_argument("--methods", nargs="+", choices=planner_names(open_loop=True),
+                   help="planners whose plans are replayed and added (default: "
+                   f"{' and '.join(judge_only_planners())}, the default ones that need no generator)")
     r.add_argument("--train", default="data/train.h5", metavar="FILE", help="the demonstrations the judge was trained on")
     r.add_argument("--test", default="data/test.h5", metavar="FILE", help="held-out demonstrations to score each new judge")
     r.add_argument("--generator", metavar="STEM", help="generator to warm-start the direct solve and to fine-tune")

@@ -27,7 +27,7 @@ def simulator(task: str):
 def planners(problem: Problem, methods: tuple[str, ...], judge: str | None = None, models_dir: str = "models",
              generator: str | None = None):
     """This process's planners for the problem and models (loaded once per process)."""
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     key = json.dumps(["planners", problem.to_dict(), methods, models_dir, judge, generator], sort_keys=True)
     return worker_cache(key, lambda: Planners.load(problem, methods, judge=judge, generator=generator,
@@ -69,10 +69,13 @@ def plan_chunk(problem: Problem, methods: tuple[str, ...], models_dir: str, envs
     return rows
 
 
-def plan_many(problem: Problem, envs: np.ndarray, methods: Sequence[str] = ("amortized", "direct"),
+def plan_many(problem: Problem, envs: np.ndarray, methods: Sequence[str] | None = None,
               simulate: bool = True, n_jobs: int = -1, models_dir: str = "models", chunk: int = 5,
               progress: bool = True, judge: str | None = None) -> list[dict]:
-    """One JSON-style row per (environment, method), in environment order."""
+    """One JSON-style row per (environment, method: default the default planners), in environment order."""
+    from judgeopt.planners.base import default_planners
+
+    methods = default_planners() if methods is None else methods
     envs = np.asarray(envs, dtype=float)
     parts = [envs[i:i + chunk] for i in range(0, len(envs), chunk)]
     jobs = (delayed(plan_chunk)(problem, tuple(methods), models_dir, p, simulate, judge, i * chunk)

@@ -36,9 +36,6 @@ from judgeopt.trajectory import PlanError
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-DEFAULT_METHODS = ("amortized", "direct")
-
-
 @dataclass(frozen=True)
 class Case:
     """One world: the nominal one (`value` None), or one perturbation at one value."""
@@ -83,16 +80,16 @@ def robustness_cases(task: Task, selected: list[tuple[str, tuple[float, ...] | N
 
 def robustness_rows(problem: Problem, qdot_maxes: tuple[float, ...], methods: tuple[str, ...],
                     models_dir: str = "models") -> tuple[list[Row], list[str]]:
-    """One row per (velocity limit, planner); a planner without a generator for a limit is left
-    out with a note (as the sweep does)."""
-    from judgeopt.planners.solve import choose_models
+    """One row per (velocity limit, planner); a planner that needs a generator where none covers a
+    limit is left out with a note (as the sweep does)."""
+    from judgeopt.planners.loaded import choose_models
 
     rows, notes = [], []
     for q in qdot_maxes:
         p = problem.with_overrides(qdot_max=float(q))
         for m in methods:
-            if m == "amortized" and choose_models(p, (m,), None, None, models_dir).generator is None:
-                notes.append(f"q̇_max {q:g}: no generator in {models_dir}/ covers these limits, so no amortised row")
+            if "generator" in REGISTRY[m].needs and choose_models(p, (m,), None, None, models_dir).generator is None:
+                notes.append(f"q̇_max {q:g}: no generator in {models_dir}/ covers these limits, so no {m} row")
                 continue
             rows.append(Row(f"{m}, qdot_max {q:g}", m, None, overrides=(("qdot_max", float(q)),)))
     return rows, notes

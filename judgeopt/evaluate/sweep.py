@@ -19,12 +19,12 @@ import numpy as np
 
 from judgeopt.evaluate.report import cell
 from judgeopt.evaluate.tables import Row
+from judgeopt.planners.base import REGISTRY, planner_names
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-PLANNERS = ("amortized", "direct", "cem")
 #: the default held-out limit sets: none is a shipped problem's, one (q̇_max 0.6 with f_max 18 N)
 #: leaves some high-friction scoops without any successful plan
 DEFAULT_LIMIT_SETS = ("qdot_max=0.6,f_max=18", "qdot_max=0.3,f_min=5,f_max=25", "qdot_max=0.8,f_min=10,f_max=30",
@@ -72,13 +72,20 @@ def random_limit_sets(k: int, seed: int, ranges=None) -> list[LimitSet]:
     return [parse_limit_set(",".join(f"{n}={v:.3g}" for n, v in zip(CONDITION_NAMES, d))) for d in draws]
 
 
+def sweep_methods() -> tuple[str, ...]:
+    """The planners a sweep runs by default: the paper's and the baselines (PlannerSpec.paper, .baseline)."""
+    return tuple(n for n, s in REGISTRY.items() if s.paper or s.baseline)
+
+
 def sweep_rows(problem: Problem, sets: list[LimitSet], vary: tuple[str, tuple[float, float]] | None,
-               models_dir: str = "models",
-               planners=PLANNERS, baselines: bool = True) -> tuple[list[Row], list[str]]:
-    """Rows for run_table (planners, no-judge, search per set) and notes on what was left out.
-    A limit set that contradicts the problem's other fields is an error naming the set; one
-    whose limits make some environments unreachable is run (those are reported infeasible)."""
-    from judgeopt.planners.solve import choose_models
+               models_dir: str = "models", methods: tuple[str, ...] | None = None,
+               baselines: bool = True) -> tuple[list[Row], list[str]]:
+    """Rows for run_table (planners, no-judge, search per set) and notes on what was left out
+    (a planner that needs a generator where none covers a set's limits). `methods`: default
+    sweep_methods(). A limit set that contradicts the problem's other fields is an error naming
+    the set; one whose limits make some environments unreachable is run (those are reported
+    infeasible)."""
+    from judgeopt.planners.loaded import choose_models
 
     rows, notes = [], []
     for ls in sets:
@@ -86,9 +93,9 @@ def sweep_rows(problem: Problem, sets: list[LimitSet], vary: tuple[str, tuple[fl
             p = problem.with_overrides(**dict(ls.overrides))
         except ProblemError as exc:
             raise ProblemError(f"limit set '{ls.label}': {exc}") from None
-        for m in planners:
-            if m == "amortized" and choose_models(p, (m,), None, None, models_dir).generator is None:
-                notes.append(f"{ls.label}: no generator in {models_dir}/ covers these limits, so no amortised row")
+        for m in methods or sweep_methods():
+            if "generator" in REGISTRY[m].needs and choose_models(p, (m,), None, None, models_dir).generator is None:
+                notes.append(f"{ls.label}: no generator in {models_dir}/ covers these limits, so no {m} row")
                 continue
             rows.append(Row(ls.label, m, None, vary, overrides=ls.overrides))
         if baselines:
@@ -109,9 +116,10 @@ def _mean(values) -> float | None:
 
 
 def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, list[dict]],
-                    planners=PLANNERS) -> list[dict]:
-    """One line per (limit set, planner asked for), with the set's feasibility figures repeated."""
-    asked = [m for m in PLANNERS if m in planners]
+                    methods: tuple[str, ...] | None = None) -> list[dict]:
+    """One line per (limit set, planner asked for: default sweep_methods()), with the set's
+    feasibility figures repeated."""
+    asked = [m for m in planner_names() if m in (methods or sweep_methods())]
     out = []
     for ls in sets:
         mine = {r.method: _by_env(results[r.key]) for r in rows if r.name == ls.label}
@@ -183,7 +191,7 @@ def plot_sweep(summary: list[dict], title: str) -> Figure:
     from matplotlib.figure import Figure
 
     sets = list(dict.fromkeys(s["limit_set"] for s in summary))
-    methods = [m for m in PLANNERS if any(s["method"] == m for s in summary)]
+    methods = list(dict.fromkeys(s["method"] for s in summary))
     fig = Figure(figsize=(12, 4))
     axes = fig.subplots(1, 2)
     width = 0.8 / (len(methods) + 1)

@@ -21,17 +21,21 @@ from judgeopt.files import atomic_write
 from judgeopt.parallel import run_chunks
 from judgeopt.planners.problem import Problem
 from judgeopt.tasks import get_task
-from judgeopt.tasks.tables import Row, Table
+from judgeopt.tasks.tables import PlannerNames, Row, Table
 
 
+def table_planners() -> PlannerNames:
+    """The registered planners, as a table's rows name them (every one, the paper's, the baselines)."""
+    from judgeopt.planners.base import REGISTRY
 
-def planners() -> list[Row]:
-    """Any task: both planners and the CEM against the problem's judge, and random plans within
+    return PlannerNames(tuple(REGISTRY), tuple(n for n, s in REGISTRY.items() if s.paper),
+                        tuple(n for n, s in REGISTRY.items() if s.baseline))
+
+
+def planners(names: PlannerNames) -> list[Row]:
+    """Any task: every registered planner against the problem's judge, and random plans within
     the limits, in the problem's own environment ranges."""
-    from judgeopt.planners.base import planner_names
-
-    return [Row(m, m, None) for m in planner_names()] + [
-        Row("no judge (random plans within the limits)", "nojudge", None)]
+    return [Row(m, m, None) for m in names.every] + [Row("no judge (random plans within the limits)", "nojudge", None)]
 
 
 def tables(task: str) -> dict[str, Table]:
@@ -93,7 +97,7 @@ def run_table(problem: Problem, rows: list[Row], n: int, seed: int, out: Path, n
 def _setting(problem: Problem, row: Row, models_dir: str) -> str | None:
     """The row's calibration.setting_id with the models there are now (None: a baseline without one)."""
     from judgeopt.planners.base import REGISTRY
-    from judgeopt.planners.solve import choose_models
+    from judgeopt.planners.loaded import choose_models
 
     if row.method not in REGISTRY:
         return None

@@ -9,27 +9,33 @@ unless each trial draws its own small differences. They go through the task's pe
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 import numpy as np
 
 from judgeopt.tasks.base import Outcome, Task
 
-#: the scoop's trial-to-trial spread: each perturbation's half-width around its nominal value
-SCOOP_SPREAD = {"y_obj_offset": 0.005, "mu_factor": 0.1, "mass_factor": 0.1, "sensor_noise": 0.5}
-
 
 @dataclass(frozen=True)
 class TrialSpread:
     """Per perturbation name, the half-width of the uniform draw around its nominal value (a
-    factor's nominal is 1, an offset's or noise's 0; a noise is drawn from [0, width])."""
+    factor's nominal is 1, an offset's or noise's 0; a noise is drawn from [0, width]). None:
+    the task's own (`Task.trial_spread`), so each task says how much its lab's trials differ."""
 
-    widths: Mapping[str, float] = field(default_factory=lambda: dict(SCOOP_SPREAD))
+    widths: Mapping[str, float] | None = None
+
+    @classmethod
+    def of(cls, task: Task | str) -> "TrialSpread":
+        """The spread of `task` (a Task or its name), with its widths written out (for reports)."""
+        from judgeopt.tasks import get_task
+
+        return cls(dict((get_task(task) if isinstance(task, str) else task).trial_spread))
 
     def draw(self, task: Task, rng: np.random.Generator) -> dict[str, float]:
         out = {}
-        for name, w in self.widths.items():
+        widths = task.trial_spread if self.widths is None else self.widths
+        for name, w in widths.items():
             if name.endswith("_factor"):
                 out[name] = float(rng.uniform(1 - w, 1 + w))
             elif name.endswith("_noise"):
@@ -91,10 +97,14 @@ def run_trials(problem: Any, plans: dict[str, list[dict]], k: int, seed: int, sp
 
 
 def markdown_trials(summary: list[dict], title: str, spread: TrialSpread) -> str:
-    """Successes per plan, with the spread each trial drew from."""
-    lines = [f"# {title}", "", "Each plan made once and tried unchanged; each trial draws its world anew: "
-             + ", ".join(f"{k} +-{v:g}" if not k.endswith("_noise") else f"{k} up to {v:g}"
-                         for k, v in spread.widths.items()) + ".", "",
+    """Successes per plan, with the spread each trial drew from (`TrialSpread.of(task)`: its widths)."""
+    if spread.widths is None:
+        raise ValueError("markdown_trials needs the spread's widths: give TrialSpread.of(task)")
+    drawn = ", ".join(f"{k} +-{v:g}" if not k.endswith("_noise") else f"{k} up to {v:g}"
+                      for k, v in spread.widths.items())
+    lines = [f"# {title}", "", "Each plan made once and tried unchanged; " + (
+             f"each trial draws its world anew: {drawn}." if drawn else
+             "every trial in the nominal world (the task declares no trial spread, Task.trial_spread)."), "",
              "| planner | environment | predicted success | successful trials |", "|---|---|---|---|"]
     for s in summary:
         p = "-" if s["predicted"] is None else f"{s['predicted']:.3f}"

@@ -129,7 +129,8 @@ def plan_record(result: Any, problem: Any, provenance: dict[str, Any], step: flo
     units = {"t": "s", **{c.name: c.unit for c in plan.channels}}
     t, fine = plan.resample(step)
     prov = dict(provenance)
-    role = ("planner" if result.method == "amortized"
+    # the generator's part in the plan: its own ("generated": one rollout of it), or the start of a solve
+    role = ("planner" if result.status == "generated"
             else "warm start" if result.info.get("warm_start") == "generator" else None)
     prov["generator"] = {**prov["generator"], "role": role} if role and prov.get("generator") else None
     if result.info.get("judge_backend") and prov.get("judge"):
@@ -181,6 +182,8 @@ def write_record(record: dict[str, Any], path: str | Path) -> Path:
 def read_plan_record(path: str | Path) -> dict[str, Any]:
     """A plan JSON file's record, validated: format, version, required fields, plan arrays."""
     path = Path(path)
+    if path.is_dir():
+        raise PlanFileError(f"{path} is a folder; give a plan file (.json, written by `judgeopt solve --save-json`)")
     try:
         text = path.read_text()
     except FileNotFoundError:

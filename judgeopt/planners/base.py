@@ -1,46 +1,98 @@
 """What a planner is, and the registry the rest of judgeopt reads its planners from.
 
 A planner turns one environment (and optionally a warm start) into a `PlanResult`; it may change
-its limits without being rebuilt (`with_limits`). Each planner has an entry in `REGISTRY`: its
-name (the CLI's `--method` choices, the evaluation's rows and calibration settings read them),
-what it needs, and how it is built from a problem and its judge. The three built-in planners
-are built by `judgeopt.planners.solve.Planners.load`, which shares one generator between them and
-lets the generator's plan warm-start the direct solve; a planner added with `register` is built
-by its own `build` (given the planners it `uses`) and runs after them. A planner that needs the
-simulator (a `ClosedLoopPlanner`, e.g. the receding planner) plans while its plan is executed:
-it runs after the others are replayed, from their results.
+its limits without being rebuilt (`with_limits`). Each planner has an entry in `REGISTRY`, added
+with `register(PlannerSpec(...))`: its name (the CLI's `--method` choices, the evaluations' rows
+and the calibration settings read them), what it needs, which models its outcomes depend on and
+where its class is. The built-in planners are registered the same way, in
+`judgeopt.planners.builtin` (imported with the package, so they come first), and built the same
+way: `PlannerSpec.make(context)` calls the class's `build(context)`. A planner that needs the
+simulator (a `ClosedLoopPlanner`, e.g. the receding planner) plans while its plan is executed: it
+runs after the others are replayed, from their results.
 
-Light to import: the command line reads the names at start-up.
+Light to import: the command line reads the names at start-up (a class given as "module:Class"
+is imported when the planner is first built).
 """
 
 from __future__ import annotations
 
 import importlib
 from abc import ABC, abstractmethod
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Callable, ClassVar
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from judgeopt.planners.problem import ProblemError
 
 if TYPE_CHECKING:
     from judgeopt.planners.result import PlanResult
 
-#: `--method` values that name several planners, not one
-RESERVED = ("both", "all")
+#: `--method` values that name several planners: those run when none is named (PlannerSpec.default), every one
+GROUPS = ("default", "all")
+#: older spellings of a group, still accepted
+GROUP_ALIASES = {"both": "default"}
+#: what a planner may need to be built or to run
+NEEDS = ("judge", "generator", "simulator")
+#: the models a planner's outcomes may depend on (its calibration setting hashes their weights)
+MODELS = ("judge", "generator", "ensemble", "trust_model")
+#: problem fields only some planners read: a planner's setting holds those its entry `reads`
+PLANNER_OPTIONS = ("objective", "p_target", "replan_period", "replan_trigger")
+#: where a warm-started planner (the direct solve) starts: the plan of the planner its entry names
+#: (the generator's, where one covers the limits), or cold
+WARM_STARTS = ("generator", "none")
+
+
+@dataclass
+class BuildContext:
+    """What a planner is built from: the problem, its judge, the generator found for its limits
+    (None: no generator covers them), the planners its entry `uses` (by name), the CasADi backend
+    asked for (None: the default), and the notes the user is shown (a build may add to them)."""
+
+    problem: Any  # judgeopt.planners.problem.Problem
+    judge: Any  # judgeopt.judge.model.Judge
+    judge_meta: dict
+    generator: Any = None  # judgeopt.planners.generator.Generator
+    casadi_backend: str | None = None
+    notes: list[str] = field(default_factory=list)
+    uses: dict[str, "Planner"] = field(default_factory=dict)
 
 
 class Planner(ABC):
     """One way of planning for a problem: `solve` for an environment, from a warm start if given."""
 
     method: ClassVar[str]
+    #: True: `for_env_set` gives one plan judged over a set of environments (a variable given as a range)
+    plans_env_sets: ClassVar[bool] = False
+
+    def __init__(self, problem: Any, judge: Any):
+        self.problem, self.judge = problem, judge
+
+    @classmethod
+    def build(cls, context: BuildContext) -> "Planner":
+        """The planner for the context's problem; by default from the problem and the judge alone."""
+        return cls(context.problem, context.judge)
 
     @abstractmethod
     def solve(self, env: dict[str, float], guess: Any = None) -> "PlanResult":
         """A plan for `env`, with its predicted success, status, residuals and timing."""
 
-    def with_limits(self, problem: Any) -> "Planner":
-        """The same planner for a problem that differs only in its limits."""
-        raise ProblemError(f"planner {self.method!r} cannot change its limits without being rebuilt")
+    def with_limits(self, problem: Any) -> "Planner | None":
+        """The same planner for a problem that differs only in its limits; None (the default):
+        it is built again for them."""
+        return None
+
+    def warm_up(self, cold: bool = False) -> float:
+        """Pay what a first solve in a process pays on its own before any plan is timed; the
+        seconds it took (`cold`: the solve will start without a warm start)."""
+        return 0.0
+
+    def for_env_set(self, samples: int, case: str) -> "Planner":
+        """The planner for one plan judged over `samples` environments at once, in their worst
+        `case` or on average (only where `plans_env_sets`)."""
+        raise ProblemError(f"planner {self.method!r} plans for one environment; it cannot plan over a set")
+
+    def details(self, result: "PlanResult") -> list[str]:
+        """Lines `judgeopt solve` prints about this planner's result below the table (none by default)."""
+        return []
 
 
 class ClosedLoopPlanner(Planner):
@@ -59,25 +111,38 @@ class ClosedLoopPlanner(Planner):
 
 @dataclass(frozen=True)
 class PlannerSpec:
-    """A planner's registry entry."""
+    """A planner's registry entry: what every consumer reads instead of its name."""
 
     name: str
     description: str
-    #: what it is built from or runs in: "judge", "generator", "simulator" (a ClosedLoopPlanner)
+    #: the Planner subclass, or where to find it ("module:Class", imported when first built: the
+    #: command line reads names only); built by its `build(context)`
+    build: type[Planner] | str | None = None
+    #: what it is built from or runs in (NEEDS): without a generator covering the limits it is left
+    #: out; with "simulator" it is a ClosedLoopPlanner
     needs: tuple[str, ...] = ("judge",)
-    #: (problem, judge model, **the planners it uses by name) -> Planner, or where to find it
-    #: ("module:Class.method", imported when first built: the command line reads names only);
-    #: None for the built-ins, which `Planners.load` builds
-    build: Callable[..., Planner] | str | None = None
-    #: planners it is built on, loaded with it (`--method receding` also runs "direct")
+    #: planners it is built on, loaded and reported with it (`--method receding` also runs "direct")
     uses: tuple[str, ...] = ()
+    #: the planner whose plan starts its search (its `guess`), run for that even where not asked for;
+    #: a guess given to `Planners.solve` replaces it, `--warm-start none` drops it
+    warm_start: str | None = None
+    #: the models its outcomes depend on (MODELS): its calibration setting and description name them
+    models: tuple[str, ...] = ("judge",)
+    #: the PLANNER_OPTIONS it reads (the others are left out of its calibration setting)
+    reads: tuple[str, ...] = ()
+    #: run when no planner is named (`--method default`, the library's solve, `evaluate robustness`)
+    default: bool = False
+    #: one of the paper's planners (Furuta et al. 2020): a row of the task's paper tables
+    paper: bool = False
+    #: a baseline compared beside the paper's planners (`evaluate sweep`, the scoop's compare table)
+    baseline: bool = False
 
     @property
     def closed_loop(self) -> bool:
         return "simulator" in self.needs
 
-    def builder(self) -> Callable[..., Planner]:
-        """`build`, imported where it is given as "module:attribute"."""
+    def planner_class(self) -> type[Planner]:
+        """`build`, imported where it is given as "module:Class"."""
         if not isinstance(self.build, str):
             return self.build
         module, _, attr = self.build.partition(":")
@@ -86,15 +151,37 @@ class PlannerSpec:
             found = getattr(found, part)
         return found
 
+    def make(self, context: BuildContext) -> Planner:
+        """The planner built for `context`."""
+        return self.planner_class().build(context)
+
+    def check(self) -> None:
+        """A one-line error naming the fix for an entry the rest of judgeopt could not use."""
+        bad = {"needs": set(self.needs) - set(NEEDS), "models": set(self.models) - set(MODELS),
+               "reads": set(self.reads) - set(PLANNER_OPTIONS)}
+        for key, allowed in (("needs", NEEDS), ("models", MODELS), ("reads", PLANNER_OPTIONS)):
+            if bad[key]:
+                raise ProblemError(f"planner {self.name!r}: {key} {sorted(bad[key])} unknown; choose from "
+                                   f"{', '.join(allowed)}")
+        unknown = [m for m in (*self.uses, *filter(None, [self.warm_start])) if m not in REGISTRY]
+        if unknown:
+            raise ProblemError(f"planner {self.name!r} is built on {', '.join(unknown)}: register "
+                               f"{'it' if len(unknown) == 1 else 'them'} first")
+        if self.build is None or (not isinstance(self.build, str) and not
+                                  (isinstance(self.build, type) and issubclass(self.build, Planner))):
+            raise ProblemError(f"planner {self.name!r}: give build=YourPlanner (a Planner subclass) or "
+                               f"build=\"module:YourPlanner\"")
+
 
 REGISTRY: dict[str, PlannerSpec] = {}
 
 
 def register(spec: PlannerSpec) -> PlannerSpec:
     """Add a planner: its name becomes a `--method` choice, an evaluation row and a setting."""
-    if spec.name in REGISTRY or spec.name in RESERVED or not spec.name.isidentifier():
-        raise ProblemError(f"planner name {spec.name!r} is taken or not a plain name (taken: "
-                           f"{', '.join([*REGISTRY, *RESERVED])})")
+    taken = (*REGISTRY, *GROUPS, *GROUP_ALIASES)
+    if spec.name in taken or not spec.name.isidentifier():
+        raise ProblemError(f"planner name {spec.name!r} is taken or not a plain name (taken: {', '.join(taken)})")
+    spec.check()
     REGISTRY[spec.name] = spec
     return spec
 
@@ -103,23 +190,47 @@ def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
 
 
+def spec_of(name: str) -> PlannerSpec:
+    """The registry entry of `name`; a one-line error naming the registered ones otherwise."""
+    if name not in REGISTRY:
+        raise ProblemError(f"unknown planner {name!r}; choose from {', '.join(REGISTRY)} (or register it: "
+                           "judgeopt.planners.base.register)")
+    return REGISTRY[name]
+
+
+def planner_names(open_loop: bool = False) -> tuple[str, ...]:
+    """Every registered planner, built-ins first (`open_loop`: those that plan before execution)."""
+    return tuple(n for n, s in REGISTRY.items() if not (open_loop and s.closed_loop))
+
+
+def default_planners() -> tuple[str, ...]:
+    """The planners run when none is named (PlannerSpec.default)."""
+    return tuple(n for n, s in REGISTRY.items() if s.default)
+
+
+def group(name: str, simulate: bool = True) -> tuple[str, ...]:
+    """The planners a group (GROUPS, or an alias of one) names; without `simulate`, those that
+    plan while executing are left out."""
+    name = GROUP_ALIASES.get(name, name)
+    if name not in GROUPS:
+        raise ProblemError(f"{name!r} is not a group of planners; choose from {', '.join(GROUPS)}")
+    names = default_planners() if name == "default" else planner_names()
+    return tuple(n for n in names if simulate or not REGISTRY[n].closed_loop)
+
+
 def with_uses(methods: tuple[str, ...] | list[str]) -> tuple[str, ...]:
     """`methods` with the planners each is built on, those first (e.g. receding -> direct, receding)."""
     return tuple(dict.fromkeys(u for m in methods for u in (*(REGISTRY[m].uses if m in REGISTRY else ()), m)))
 
 
-def planner_names() -> tuple[str, ...]:
-    """Every registered planner, built-ins first."""
-    return tuple(REGISTRY)
-
-
-register(PlannerSpec("amortized", "the paper's generator (eqs. 2-4): a plan in a millisecond, limits held softly",
-                     ("judge", "generator")))
-register(PlannerSpec("direct", "Ipopt over the judge's CasADi function, every limit and the terminal state hard, "
-                     "warm-started from the generator's plan"))
-register(PlannerSpec("cem", "the sampling baseline: cross-entropy search over spline commands, the same judge"))
-
-
-register(PlannerSpec("receding", "the direct solve re-run during execution, every [solver] replan_period, from what "
-                     "the arm measured", ("judge", "simulator"), "judgeopt.planners.receding:RecedingPlanner.built",
-                     uses=("direct",)))
+def to_build(methods: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """`methods` with what each is built on and the planner that warm-starts it, in registry
+    order: a planner is registered after those, so each comes after what it needs."""
+    found: set[str] = set()
+    todo = list(methods)
+    while todo:
+        s = spec_of(todo.pop())
+        if s.name not in found:
+            found.add(s.name)
+            todo += [*s.uses, *filter(None, [s.warm_start])]
+    return tuple(n for n in REGISTRY if n in found)

@@ -115,6 +115,9 @@ class CEMPlanner(Planner):
         self.problem, self.judge, self.config = problem, judge, config or CEMConfig()
         self.commands = SplineCommands(problem, self.config.knots)
 
+    def with_limits(self, problem: Problem) -> "CEMPlanner":
+        return CEMPlanner(problem, self.judge, self.config)
+
     def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
         from judgeopt.planners.direct import judge_env
 

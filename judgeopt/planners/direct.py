@@ -38,9 +38,9 @@ from judgeopt.judge.ensemble import pessimistic
 from judgeopt.judge.model import Judge, sigmoid
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
-from judgeopt.planners.base import Planner
+from judgeopt.planners.base import BuildContext, Planner
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
-from judgeopt.planners.trust_region import TrustRegion
+from judgeopt.planners.trust_region import TrustRegion, load_trust_region
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
 
@@ -101,6 +101,7 @@ class DirectPlanner(Planner):
     """Ipopt over the judge's CasADi function for one problem (any environment in it)."""
 
     method = "direct"
+    plans_env_sets = True
 
     def __init__(self, problem: Problem, judge: Judge, cjudge: CasadiJudge, options: DirectOptions | None = None,
                  members: list[CasadiJudge] | None = None, trust: TrustRegion | None = None,
@@ -128,6 +129,52 @@ class DirectPlanner(Planner):
                                "holds per environment)")
         self.samples, self.case = samples, case
         self._build()
+
+    @classmethod
+    def build(cls, context: BuildContext) -> "DirectPlanner":
+        """Its judge through l4casadi32 where l4casadi is installed, else the torch32 callback
+        (judge.casadi_fn.choose_backend; the library is built once per judge, a few seconds, and
+        loaded from the cache after), with the problem's ensemble and trust region; what the user
+        should know about them is added to the context's notes."""
+        from judgeopt.files import resolve
+        from judgeopt.judge.casadi_fn import DEFAULT_BACKEND, build_casadi_judge
+        from judgeopt.judge.store import check_compatible
+
+        problem, judge, notes = context.problem, context.judge, context.notes
+        metrics = context.judge_meta.get("metrics")
+        ceiling = metrics.get("p_max_train") if isinstance(metrics, dict) else None
+        if problem.objective == "target" and ceiling is not None and ceiling < problem.p_target:
+            notes.append(f"the judge never gives a training demonstration more than p = {ceiling:.3f} (some labels "
+                         f"wrong?), so the direct solve's p_target = {problem.p_target:g} is out of reach and it "
+                         f"spends its iterations on the slack; set --p-target below {ceiling:.3f}")
+        if context.generator is None:
+            notes.append("no generator trained for these limits: the direct solve starts from the min-jerk guess")
+        backend = context.casadi_backend or DEFAULT_BACKEND
+        # the judge as a constraint (objective "target") tolerates float32's noise; -log p does not
+        tolerant = problem.objective == "target"
+        cj = build_casadi_judge(judge, backend=backend, noise_tolerant=tolerant)
+        members, trust = None, None
+        if problem.ensemble:
+            from judgeopt.judge.ensemble import load_ensemble
+
+            judges, _ = load_ensemble(resolve(problem.ensemble))
+            for m in judges:
+                check_compatible(m.config, horizon=problem.steps, dt=problem.dt, channels=problem.channels,
+                                 env_names=problem.env_names)
+            members = [build_casadi_judge(m, backend=backend, noise_tolerant=tolerant) for m in judges]
+            notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
+                         f"{len(members)} judges ({problem.ensemble})")
+        if problem.trust_region is not None:
+            trust = load_trust_region(resolve(problem.trust_model, (".json",)), 3 * (problem.steps + 1))
+            notes.append(f"direct: trust region, distance to the demonstrations <= {problem.trust_region:g} "
+                         f"(demonstrations' median {trust.quantiles['q50']:.1f}, 95 % "
+                         f"{trust.quantiles['q95']:.1f})")
+        return cls(problem, judge, cj, members=members, trust=trust)
+
+    def for_env_set(self, samples: int, case: str) -> "DirectPlanner":
+        """The same solve for `samples` environments at once (`solve`'s env_set), in their `case`."""
+        return DirectPlanner(self.problem, self.judge, self.cjudge, self.options, self.members, self.trust, samples,
+                             case)
 
     def _build(self) -> None:
         pr, n, dt = self.problem, self.problem.steps, self.problem.dt

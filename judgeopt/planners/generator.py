@@ -31,7 +31,7 @@ from torch import nn
 
 from judgeopt.planners.dynamics import channel_order, plan_from_parts, step
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges, limits_of
-from judgeopt.planners.base import Planner
+from judgeopt.planners.base import BuildContext, Planner
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals
 from judgeopt.trajectory import Plan
@@ -177,6 +177,12 @@ class AmortizedPlanner(Planner):
         else:
             self._c = np.empty(0)
             self._scales = (g.f_mid, g.f_half, g.a_scale, g.v_half)
+
+    @classmethod
+    def build(cls, context: BuildContext) -> "AmortizedPlanner":
+        """With the generator found for the context's limits (the registry leaves this planner out
+        where none covers them)."""
+        return cls(context.generator, context.problem, context.judge)
 
     def plan(self, env: dict[str, float]) -> Plan:
         """The generator's rollout in numpy float64 (equal to Generator.rollout to float32 rounding)."""

@@ -40,7 +40,7 @@ class GeneratorTrainConfig:
     threads: int = 0
     progress: bool = True
     # margin: environment shifts ((name, delta), ...) under which the judge must also call each plan a
-    # success, e.g. (("y_obj", 0.03),): the object 3 cm further than told. Each adds margin_weight * P
+    # success, e.g. (("NAME", 0.03),): the world's NAME 0.03 more than told. Each adds margin_weight * P
     # times -log p of the plan in the shifted environment (clipped to the problem's range).
     margin: tuple[tuple[str, float], ...] = ()
     margin_weight: float = 1.0

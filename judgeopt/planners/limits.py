@@ -18,8 +18,8 @@ CONDITION_NAMES = ("qdot_max", "f_min", "f_max")
 @dataclass(frozen=True)
 class LimitRanges:
     """The limit ranges a conditioned generator is trained over (uniform, independently per
-    trajectory) and trusted in. Defaults: q̇_max from 0.25 m/s (y_obj = 0.28 m is reachable
-    from 0.214 m/s) to the paper's 1.0; f_min in [5, 10] N and f_max in [15, 25] N contain the
+    trajectory) and trusted in. Defaults (the default task's): q̇_max from 0.25 m/s (the farthest
+    sampled end, 0.28 m, is reachable from 0.214 m/s) to the paper's 1.0; f_min in [5, 10] N and f_max in [15, 25] N contain the
     paper's 7.5 and 22.5 N, always keep f_min < f_max (by 5 N at least) and stay inside the
     0-30 N the judge's demonstrations pressed with."""
 
@@ -97,7 +97,7 @@ def wide_limits(task: str = DEFAULT_TASK) -> "LimitRanges":
 
 
 #: limit ranges wider than any shipped problem, down to forces and speeds under which no scoop
-#: succeeds at high friction (q̇_max from what reaches y_obj = 0.28 m): refinement's default,
+#: succeeds at high friction (q̇_max from what reaches the farthest sampled end): refinement's default,
 #: the sweep's random limit sets, and the shipped refined conditioned generator's ranges
 WIDE_LIMITS = wide_limits(DEFAULT_TASK)
 

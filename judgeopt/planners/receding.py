@@ -21,7 +21,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from judgeopt.planners.base import ClosedLoopPlanner
+from judgeopt.planners.base import BuildContext, ClosedLoopPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.problem import ProblemError
 from judgeopt.planners.result import PlanResult, assess
@@ -108,9 +108,9 @@ class RecedingPlanner(ClosedLoopPlanner):
         self.every = self.config.steps(pr.dt, pr.steps)
 
     @classmethod
-    def built(cls, problem: Any, judge: Any, direct: DirectPlanner) -> "RecedingPlanner":
-        """Its registry entry's builder: on the set's direct solve, configured by its problem."""
-        return cls(direct)
+    def build(cls, context: BuildContext) -> "RecedingPlanner":
+        """On the direct solve loaded with it (its registry entry `uses` it), configured by its problem."""
+        return cls(context.uses["direct"])
 
     def with_limits(self, problem: Any) -> "RecedingPlanner":
         return RecedingPlanner(self.direct.with_limits(problem), self.config)
@@ -119,9 +119,10 @@ class RecedingPlanner(ClosedLoopPlanner):
             world: dict[str, float]) -> PlanResult:
         """The direct plan among `results` executed in `world` with re-planning, as a result row
         (its p: the last kept re-plan's; its outcome: the closed loop's)."""
-        first = next((r for r in results if r.method == "direct"), None)
+        first = next((r for r in results if r.method == self.direct.method), None)
         if first is None:
-            raise ProblemError("the receding planner executes the direct plan: run it with the direct planner")
+            raise ProblemError(f"the receding planner executes the {self.direct.method} plan: run it with the "
+                               f"{self.direct.method} planner")
         loop = self.execute(simulator, first, env, world)
         kept = [r for r in loop.replans if r.kept]
         solves = [r for r in loop.replans if r.status != PLAN_KEPT]
@@ -136,6 +137,16 @@ class RecedingPlanner(ClosedLoopPlanner):
             message=f"{len(loop.replans)} checks every {self.config.period:g} s (trigger {self.config.trigger}), "
                     f"{len(solves)} re-solved, {len(kept)} re-plans kept")
         return assess(out)
+
+    def details(self, result: PlanResult) -> list[str]:
+        """Its log: one line per re-plan."""
+        lines = [f"{self.method}: {result.message}; each re-plan's time, predicted success and Ipopt status:"]
+        for x in result.info["replan_log"]:
+            p = "-" if x["predicted"] is None else f"{x['predicted']:.3f}"
+            dropped = "" if x["kept"] or x["status"] == PLAN_KEPT else " (dropped)"
+            lines.append(f"  t = {x['t']:.2f} s (from {x['k']} measured samples): p {p}, {1000 * x['seconds']:.0f} ms, "
+                         f"{x['iterations']} it, {x['status']}{dropped}")
+        return lines
 
     def execute(self, simulator: Any, first: PlanResult, env: Mapping[str, float],
                 world: Mapping[str, float]) -> ClosedLoopResult:

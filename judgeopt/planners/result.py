@@ -14,6 +14,7 @@ import numpy as np
 
 from judgeopt.planners.dynamics import dynamics_residual
 from judgeopt.planners.problem import InfeasibleProblemError, Problem
+from judgeopt.planners.summary import SummaryTable
 from judgeopt.trajectory import Plan
 
 #: a plan is "likely" to succeed at or above this success probability
@@ -90,6 +91,36 @@ class PlanResult:
     def worst_constraint(self) -> str | None:
         return max(self.residuals, key=self.residuals.get) if self.residuals else None
 
+    def row(self) -> dict[str, Any]:
+        """The headline values, one row of a summary table (`summary`, SolveReport.summary)."""
+        return {"method": self.method, "verdict": self.verdict, "success_probability": self.success_probability,
+                "probability_source": self.probability_source or None, "predicted_success": self.predicted_success,
+                "simulated_success": self.simulated_success, "status": self.status,
+                "max_constraint_violation": self.max_constraint_violation, "worst_constraint": self.worst_constraint,
+                "iterations": self.iterations, "solve_time_s": self.solve_time_s}
+
+    def summary(self) -> SummaryTable:
+        """This result as a one-row table (a list of dicts; `print` shows it aligned)."""
+        return SummaryTable([self.row()])
+
+    def __repr__(self) -> str:
+        """A few lines (the default would print every sample of the plan and the response: about
+        100 KB); the plan is `.plan`, everything `to_json()`."""
+        if self.plan is None:
+            head = f"PlanResult {self.method}: no plan ({self.status})"
+            reason = self.message.splitlines()[0][:200] if self.message else ""
+            return head + (f"\n  {reason}" if reason else "")
+        p = ("" if self.success_probability is None else
+             f", success p {self.success_probability:.3f} ({self.probability_source or 'judge'})")
+        sim = {None: "not simulated", True: "simulated: success", False: "simulated: FAILURE"}[self.simulated_success]
+        worst = self.max_constraint_violation
+        held = ("limits held" if worst is None or worst <= HOLD_TOL else
+                f"worst violation {worst:.2g} ({self.worst_constraint})")
+        its = "" if self.iterations is None else f", {self.iterations} iterations"
+        env = ", ".join(f"{k} = {v:g}" for k, v in self.env.items())
+        return (f"PlanResult {self.method}: {self.verdict}{p}\n  {sim}; {held}; {self.status}{its}, "
+                f"{seconds(self.solve_time_s)}\n  environment: {env}")
+
     def to_json(self) -> dict[str, Any]:
         d: dict[str, Any] = {
             "method": self.method, "status": self.status, "message": self.message, "environment": self.env,
@@ -105,6 +136,11 @@ class PlanResult:
                      channels=[c.name for c in p.channels], units={"t": "s", **{c.name: c.unit for c in p.channels}})
         d.update({k: v for k, v in self.info.items() if k not in d})
         return d
+
+
+def seconds(t: float) -> str:
+    """A solve time as people read it: "12.3 ms" under a second, "1.23 s" above."""
+    return f"{t * 1e3:.1f} ms" if t < 1 else f"{t:.2f} s"
 
 
 def stood_behind(predicted: float | None, calibrated: float | None, covers: bool) -> tuple[float | None, str]:

@@ -8,33 +8,54 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any, Mapping, Sequence
 
-from judgeopt.planners.base import REGISTRY, planner_names, with_uses
+import numpy as np
+
+from judgeopt.planners.base import GROUP_ALIASES, GROUPS, group, spec_of, with_uses
 from judgeopt.planners.problem import Problem, ProblemError
+from judgeopt.planners.report_views import ReportViews
 
-#: `method` values that name several planners
-GROUPS = {"both": ("amortized", "direct")}
-#: said when no generator covers the limits and "both" was asked for
-NO_GENERATOR = ("no generator covers these limits: the direct solve runs alone, from its min-jerk guess (train one "
-                "with `judgeopt train-generator`)")
+#: samples per environment variable given as a range "somewhere in here" (env_grid): its ends and
+#: middle, or five points where only one variable is uncertain
+GRID_POINTS = {1: 5}
+GRID_POINTS_DEFAULT = 3
 
 
 def methods_for(problem: Problem, method: str, generator: str | None = None, models_dir: str = "models",
                 simulate: bool = True) -> tuple[tuple[str, ...], str | None]:
-    """The planners `method` names ("both", "all" or one planner, with the planners it is built
-    on), and a note when the generator's part falls away because none covers the limits.
-    Without `simulate`, "all" leaves out the planners that plan while executing."""
-    if method == "all":
-        methods = tuple(m for m in planner_names() if simulate or not REGISTRY[m].closed_loop)
-    else:
-        methods = GROUPS.get(method) or with_uses((method,))
-    if method in GROUPS and not generator:
-        from judgeopt.planners.solve import choose_models
+    """The planners `method` names (a group: "default", "all"; or one planner, with the planners it
+    is built on), and a note when a group's planners that need a generator fall away because none
+    covers the limits. Without `simulate`, a group leaves out the planners that plan while executing."""
+    if method not in GROUPS and method not in GROUP_ALIASES:
+        return with_uses((method,)), None
+    methods = group(method, simulate)
+    needy = [m for m in methods if "generator" in spec_of(m).needs]
+    kept = tuple(m for m in methods if m not in needy)
+    if needy and kept and not generator:
+        from judgeopt.planners.loaded import choose_models
 
         if choose_models(problem, methods, None, None, models_dir).generator is None:
-            return ("direct",), NO_GENERATOR
-    return tuple(methods), None
+            runs = "runs" if len(kept) == 1 else "run"
+            return kept, (f"no generator covers these limits: {', '.join(kept)} {runs} without {', '.join(needy)} "
+                          "(train one with `judgeopt train-generator`)")
+    return methods, None
+
+
+def env_grid(nominal: dict[str, float], ranges: dict[str, tuple[float, float]], judge_reads: Sequence[str]) -> list[dict[str, float]]:
+    """The environments one plan is judged in when some variables are only known to lie in a
+    range: a grid over the ranges (ends included: a worst case over a box is usually at a corner),
+    the other variables at their nominal value. A range for a variable the judge does not read is
+    refused: it could not change the plan."""
+    unread = [k for k in ranges if k not in judge_reads]
+    if unread:
+        raise ProblemError(f"{', '.join(unread)} given as a range, but the judge does not read "
+                           f"{'it' if len(unread) == 1 else 'them'} (it reads {', '.join(judge_reads)}): give one value")
+    k = GRID_POINTS.get(len(ranges), GRID_POINTS_DEFAULT)
+    axes = {name: np.linspace(lo, hi, k) for name, (lo, hi) in ranges.items()}
+    grid = np.meshgrid(*axes.values(), indexing="ij")
+    return [{**nominal, **{name: float(g.flat[i]) for name, g in zip(axes, grid)}} for i in range(grid[0].size)] \
+        if ranges else [dict(nominal)]
 
 
 def simulated_world(problem: Problem, items: Mapping[str, float] | None) -> dict[str, float]:
@@ -56,14 +77,14 @@ def simulated_world(problem: Problem, items: Mapping[str, float] | None) -> dict
     return out
 
 
-@dataclass
-class SolveReport:
+@dataclass(repr=False)  # ReportViews' short repr, not every sample of every plan
+class SolveReport(ReportViews):
     """Every planner's result for the problem's environment, with the notes, the world it was
     simulated in and, where no plan is likely, the limit changes that would make one."""
 
     problem: Problem
     env: dict[str, float]
-    planners: Any  # judgeopt.planners.solve.Planners
+    planners: Any  # judgeopt.planners.loaded.Planners
     results: list
     world: dict[str, float] = field(default_factory=dict)  # what the simulated world has besides env, or instead
     suggestions: list = field(default_factory=list)
@@ -116,24 +137,22 @@ class SolveReport:
 def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | None = None,
           warm_start: str = "generator", ranges: Mapping[str, tuple[float, float]] | None = None,
           range_case: str = "worst", suggest: bool = True) -> SolveReport:
-    """Plan for the problem's nominal environment with `planners` (`Planners.load`).
+    """Plan for the problem's nominal environment with `planners` (`loaded.Planners.load`).
     `simulator`: replay each plan there (and run the planners that plan while executing), in
-    the problem's world changed by `world`; `ranges`: the direct solve plans over a grid of these
-    (env_grid), in their `range_case`; `suggest`: where the plan to run is unlikely, search for the
+    the problem's world changed by `world`; `ranges`: the planners that plan over sets (the direct solve) plan
+    over a grid of these (env_grid), in their `range_case`; `suggest`: where the plan to run is unlikely, search for the
     limit changes that would make one likely."""
     problem = planners.problem
     env = problem.nominal_env()
     world = simulated_world(problem, world)
     env_set = None
-    if ranges and planners.direct is not None:
-        from judgeopt.planners.solve import env_grid
-
+    over = planners.over_env_sets()
+    if ranges and over:
         env_set = env_grid(env, dict(ranges), planners.judge.config.env_names)
         where = ", ".join(f"{k} in [{lo:g}, {hi:g}]" for k, (lo, hi) in ranges.items())
-        planners.notes.append(f"direct: planned for the {range_case} case over {len(env_set)} environments "
+        planners.notes.append(f"{', '.join(over)}: planned for the {range_case} case over {len(env_set)} environments "
                               f"({where}); the others for its middle ({', '.join(f'{k} = {env[k]:g}' for k in ranges)})")
-    if planners.direct is not None:  # what a first solve pays, paid before any plan is timed
-        planners.direct.warm_up(cold=warm_start == "none")
+    planners.warm_up(cold=warm_start == "none")  # what a first solve pays, paid before any plan is timed
     results = planners.solve(env, simulator=simulator, warm_start=warm_start, env_set=env_set, case=range_case,
                              world=world)
     report = SolveReport(problem, env, planners, results,

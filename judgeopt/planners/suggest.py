@@ -13,12 +13,12 @@ Nothing here is guessed: each figure is a planner's result under the suggested l
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
 from judgeopt.planners.problem import ProblemError
 from judgeopt.planners.result import LIKELY, PlanResult, recommended
-from judgeopt.planners.solve import Planners
+from judgeopt.planners.base import spec_of
+from judgeopt.planners.loaded import Planners
 from judgeopt.tasks import Task, get_task
 
 
@@ -72,12 +72,11 @@ class Suggestion:
 
 
 def _screen(planners: Planners, name: str, value: float, env: dict[str, float], guess) -> float:
-    """Best success probability of the fastest planner that covers the relaxed limit."""
+    """Best success probability of the fastest planner that covers the relaxed limit (the first
+    that plans before execution: the registry lists the built-ins fastest first)."""
     relaxed = planners.with_limits(**{name: value})
-    fastest = next(m for m in ("amortized", "direct", "cem") if m in relaxed.methods)
-    only = dataclasses.replace(relaxed, methods=(fastest,), direct=relaxed.direct if fastest == "direct" else None,
-                               cem=relaxed.cem if fastest == "cem" else None)
-    r = recommended(only.solve(env, guess=guess))
+    fastest = next(m for m in relaxed.methods if not spec_of(m).closed_loop)
+    r = recommended(relaxed.only(fastest).solve(env, guess=guess))
     return -1.0 if r is None else r.success_probability
 
 
@@ -107,8 +106,9 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
                     hi = mid
                 else:
                     lo = mid
-            relaxed = planners.with_limits(**{rx.name: hi}).solve(env, guess=None if "amortized" in
-                                                                  planners.methods else guess)
+            # a planner whose warm-start planner is asked for too starts from that one's new plan
+            started = any(spec_of(m).warm_start in planners.methods for m in planners.methods)
+            relaxed = planners.with_limits(**{rx.name: hi}).solve(env, guess=None if started else guess)
         except ProblemError:  # the relaxed limits contradict another one
             continue
         top = recommended(relaxed)

@@ -25,7 +25,7 @@ Nothing under models/ is touched; `install` copies the last round's models there
 from __future__ import annotations
 
 import json
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterator
 
@@ -37,11 +37,19 @@ from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
 
 
+def judge_only_planners() -> tuple[str, ...]:
+    """The default planners that need no generator (the direct solve): a generator is only as good
+    as the judge it was trained against, and refinement changes the judge every round."""
+    from judgeopt.planners.base import REGISTRY
+
+    return tuple(n for n, s in REGISTRY.items() if s.default and "generator" not in s.needs)
+
+
 @dataclass(frozen=True)
 class RefineConfig:
     rounds: int = 3
     n: int = 150  # environments per round
-    methods: tuple[str, ...] = ("direct",)
+    methods: tuple[str, ...] = field(default_factory=judge_only_planners)
     seed: int = 0
     judge_epochs: int = 8  # fine-tuning epochs per round (from the previous round's judge)
     judge_lr: float = 1e-3
@@ -60,8 +68,15 @@ class RefineConfig:
             raise ProblemError(f"rounds, n, judge_epochs, weight and chunk must be at least 1: {self}")
         if self.limit_ranges is not None and not isinstance(self.limit_ranges, LimitRanges):
             object.__setattr__(self, "limit_ranges", LimitRanges.from_dict(self.limit_ranges))
-        if "amortized" in self.methods and self.generator_epochs < 1:
-            raise ProblemError("planning with the amortised generator in refinement needs generator_epochs > 0 "
+        from judgeopt.planners.base import planner_names, spec_of
+
+        closed = [m for m in self.methods if spec_of(m).closed_loop]
+        if closed:
+            raise ProblemError(f"{', '.join(closed)} plans while executing; refinement replays finished plans: choose "
+                               f"from {', '.join(planner_names(open_loop=True))}")
+        needy = [m for m in self.methods if "generator" in spec_of(m).needs]
+        if needy and self.generator_epochs < 1:
+            raise ProblemError(f"planning with {', '.join(needy)} in refinement needs generator_epochs > 0 "
                                "(a generator is only as good as the judge it was trained against)")
 
 

@@ -7,15 +7,24 @@ from dataclasses import dataclass
 from typing import Callable, NamedTuple
 
 
+class PlannerNames(NamedTuple):
+    """The registered planners a table's rows name, by what their entries say they are
+    (judgeopt.planners.base reads the registry; judgeopt.evaluate hands them to `Table.rows`)."""
+
+    every: tuple[str, ...]
+    paper: tuple[str, ...]  # the paper's planners (PlannerSpec.paper)
+    baselines: tuple[str, ...]  # compared beside them (PlannerSpec.baseline)
+
+
 class Table(NamedTuple):
-    rows: Callable[[], list]  # -> list[Row]
+    rows: Callable[[PlannerNames], list]  # -> list[Row]
     title: str  # formatted with the problem's name, task, qdot_max, f_min, f_max, env
     problem: str = "problems/paper_sim.toml"  # the default problem
 
 
 @dataclass(frozen=True)
 class Row:
-    """One line of a table: `method` in amortized | direct | cem | random | nojudge | search, with
+    """One line of a table: `method` a registered planner or random | nojudge | search, with
     `judge` (a model path; None: the problem's); `vary`: one environment variable's range this row
     draws from instead of the problem's (rows with the same range share their environments);
     `overrides` change problem fields for this row only (an ablation, a limit set)."""

@@ -100,7 +100,7 @@ def test_inspect_reads_every_kind_of_file(tmp_path, capsys):
     (evaluation / "partial").mkdir(parents=True)
     rows = [{"method": "direct", "setting_description": "direct, judge j", "simulated_success": s} for s in (1, 0, 1)]
     (evaluation / "partial" / "a.json").write_text(json.dumps(rows))
-    expected = {"data/test.h5": "dataset", "models/judge_default": "judge", "models/generator_paper_sim.pt": "generator",
+    expected = {"data/test.h5": "dataset", "models/judge_demos_tcn": "judge", "models/generator_paper_sim.pt": "generator",
                 "models/judge_ensemble": "ensemble", "models/calibration_default.json": "calibration",
                 "models/trust_region_default.json": "trust region", str(plan): "plan", str(bag): "ros bag",
                 str(evaluation): "evaluation"}

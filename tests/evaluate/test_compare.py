@@ -8,7 +8,7 @@ import pytest
 
 from judgeopt.files import REPO, resolve
 from judgeopt.evaluate.report import calibration_error, reliability, summarise, write_report
-from judgeopt.evaluate.tables import Row
+from judgeopt.evaluate.tables import Row, table_planners
 from judgeopt.tasks.scoop.tables import compare
 from judgeopt.judge.store import load_judge
 from judgeopt.planners.cem import CEMConfig, CEMPlanner
@@ -20,7 +20,7 @@ ROOT = REPO  # the source checkout
 @pytest.fixture(scope="module")
 def cem():
     p = load_problem(resolve("problems/paper_sim_slow.toml"))
-    judge, _ = load_judge(ROOT / "models" / "judge_default")
+    judge, _ = load_judge(ROOT / "models" / "judge_demos_tcn")
     return CEMPlanner(p, judge, CEMConfig(population=64, iterations=4))
 
 
@@ -57,7 +57,7 @@ def test_reliability_and_calibration_error():
 
 
 def test_compare_report_has_every_planner_and_a_reliability_diagram(tmp_path):
-    rows = compare()
+    rows = compare(table_planners())
     assert [r.method for r in rows][:3] == ["amortized", "direct", "cem"]
     assert {r.method for r in rows[3:]} == {"amortized", "direct"}
     assert all(r.overrides or r.judge != rows[1].judge for r in rows[3:])
@@ -74,7 +74,7 @@ def test_compare_report_has_every_planner_and_a_reliability_diagram(tmp_path):
 def test_the_calibrated_column_counts_only_plans_the_calibration_covers():
     """Outside its fitted ranges a calibration map extrapolates a rate, and `solve` reports the
     judge's p there; a table's 'calibrated' column must not show the extrapolated value either."""
-    rows = compare()[:1]
+    rows = compare(table_planners())[:1]
     plans = [{"simulated_success": i < 3, "predicted_success": 0.99, "calibrated_success": c, "calibration_covers": cov,
               "max_constraint_violation": 0.0, "solve_time_s": 0.1, "env_index": i}
              for i, (c, cov) in enumerate([(0.6, True), (0.6, True), (1.0, False), (1.0, False)])]
@@ -85,6 +85,6 @@ def test_the_calibrated_column_counts_only_plans_the_calibration_covers():
 
 
 def test_row_overrides_change_the_problem_for_that_row_only():
-    row = Row("slow", "cem", "models/judge_default", overrides=(("qdot_max", 0.3),))
-    assert row.key != Row("fast", "cem", "models/judge_default").key
+    row = Row("slow", "cem", "models/judge_demos_tcn", overrides=(("qdot_max", 0.3),))
+    assert row.key != Row("fast", "cem", "models/judge_demos_tcn").key
     assert dict(row.overrides)["qdot_max"] == 0.3

@@ -9,7 +9,7 @@ import pytest
 from judgeopt.cli import main
 from judgeopt.files import REPO, resolve
 from judgeopt.evaluate.report import summarise, wilson, write_report
-from judgeopt.evaluate.tables import Row, environments, run_table
+from judgeopt.evaluate.tables import Row, environments, run_table, table_planners
 from judgeopt.tasks.scoop.tables import table4, table5
 from judgeopt.planners.problem import load_problem
 
@@ -17,19 +17,20 @@ ROOT = REPO  # the source checkout
 
 
 def test_rows_match_the_papers_tables():
-    t4 = table4()
+    t4 = table4(table_planners())
     assert [r.paper for r in t4 if r.method not in ("direct", "nojudge")] == [100.0, 90.0, 0.0, 28.0]
     assert {r.method for r in t4} == {"amortized", "direct", "random", "nojudge"}
-    t5 = table5()
+    t5 = table5(table_planners())
     assert [(r.vary[1], r.paper) for r in t5 if r.method == "amortized"] == [
         ((1.0, 3.0), 100.0), ((3.0, 3.5), 100.0), ((0.5, 1.0), 100.0), ((3.5, 4.0), 81.0), ((0.05, 0.5), 45.0)]
 
 
 def test_rows_with_one_range_share_their_environments():
     p = load_problem(resolve("problems/paper_sim.toml"))
-    a, b = environments(p, table4()[0], 5, 0), environments(p, table4()[-1], 5, 0)
+    t4 = table4(table_planners())
+    a, b = environments(p, t4[0], 5, 0), environments(p, t4[-1], 5, 0)
     assert (a == b).all() and a[:, 0].min() >= 0.10 and a[:, 0].max() <= 0.28
-    c = environments(p, table5()[-1], 5, 0)
+    c = environments(p, table5(table_planners())[-1], 5, 0)
     assert c[:, 1].max() <= 0.5
 
 
@@ -42,7 +43,7 @@ def test_wilson_interval():
 @pytest.mark.slow
 def test_run_table_resumes_and_reports(tmp_path):
     p = load_problem(resolve("problems/paper_sim.toml"))
-    rows = [Row("random actions", "random", None), Row("proposed", "amortized", "models/judge_default")]
+    rows = [Row("random actions", "random", None), Row("proposed", "amortized", "models/judge_demos_tcn")]
     res = run_table(p, rows, 4, 0, tmp_path, n_jobs=1, chunk=2, progress=False)
     assert [len(v) for v in res.values()] == [4, 4]
     assert all(isinstance(r["simulated_success"], bool) for v in res.values() for r in v)
@@ -72,7 +73,7 @@ def test_evaluate_planners_with_another_judge_plans_with_it(tmp_path):
     the rows record the judge they planned with, not the problem's."""
     out = tmp_path / "t"
     assert main(["evaluate", "planners", "--problem", "problems/paper_sim_slow.toml", "--methods", "direct", "--judge",
-                 "models/judge_default", "--n", "1", "--no-baselines", "--jobs", "1", "--quiet", "--out", str(out)]) == 0
+                 "models/judge_demos_tcn", "--n", "1", "--no-baselines", "--jobs", "1", "--quiet", "--out", str(out)]) == 0
     rows = [r for f in (out / "partial").glob("*.json") for r in json.loads(f.read_text())]
-    assert rows and all("judge judge_default" in r["setting_description"] for r in rows)
-    assert "direct, judge_default" in (out / "planners.md").read_text()
+    assert rows and all("judge judge_demos_tcn" in r["setting_description"] for r in rows)
+    assert "direct, judge_demos_tcn" in (out / "planners.md").read_text()

@@ -138,7 +138,7 @@ def test_sweep_end_to_end_with_an_unreachable_set(tmp_path, capsys):
 
 def test_sweep_plans_against_the_judge_given(tmp_path, capsys):
     """--judge replaces the problem's judge in every row (here a set no plan can meet: nothing is solved)."""
-    argv = ["evaluate", "sweep", "--n", "1", "--limits", "qdot_max=0.05", "--judge", "models/judge_default",
+    argv = ["evaluate", "sweep", "--n", "1", "--limits", "qdot_max=0.05", "--judge", "models/judge_demos_tcn",
             "--no-baselines", "--methods", "direct", "--jobs", "1", "--quiet", "--out", str(tmp_path)]
     assert main(argv) == 0
-    assert "judge models/judge_default)" in (tmp_path / "sweep.md").read_text()
+    assert "judge models/judge_demos_tcn)" in (tmp_path / "sweep.md").read_text()

@@ -20,7 +20,7 @@ from judgeopt.planners.problem import InfeasibleProblemError, Problem
 from judgeopt.tasks.scoop import scoop_plan
 
 ENV = {"y_obj": 0.25, "mu": 2.0}
-BASE = Problem(judge="models/judge_default")  # q in [-0.2, 0.4], q̇ in [-0.05, 1.0], f in [7.5, 22.5], p_target 0.98
+BASE = Problem(judge="models/judge_demos_tcn")  # q in [-0.2, 0.4], q̇ in [-0.05, 1.0], f in [7.5, 22.5], p_target 0.98
 #: how close "touches" is: Ipopt's barrier keeps an interior point this near its bound (mu_init 1e-5)
 TOUCH = 1e-3
 #: how far beyond a bound a plan may end: none (Ipopt projects its last point into the bounds)
@@ -31,7 +31,7 @@ CROSS = 1e-9
 def judge():
     from judgeopt.judge.store import load_judge
 
-    return load_judge(REPO / "models" / "judge_default")[0]
+    return load_judge(REPO / "models" / "judge_demos_tcn")[0]
 
 
 @pytest.fixture(scope="module")

@@ -114,7 +114,7 @@ def test_calibrate_cli_fits_from_evaluation_folders_and_keeps_other_settings(tmp
 
 
 def test_planners_report_calibrated_success_for_their_setting(tmp_path):
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     problem = load_problem(resolve("problems/paper_sim.toml"))
     planners = Planners.load(problem.with_overrides(calibration=str(tmp_path / "none.json")), ("amortized",))

@@ -31,7 +31,7 @@ SOFT_LIMIT_TOL = 1e-2
 def judge():
     from judgeopt.judge.store import load_judge
 
-    return load_judge(ROOT / "models" / "judge_default")[0]
+    return load_judge(ROOT / "models" / "judge_demos_tcn")[0]
 
 
 @pytest.fixture(scope="module")
@@ -171,9 +171,9 @@ def test_solve_with_a_freshly_trained_conditioned_generator(tmp_path, capsys):
     assert "needs --conditioned" in capsys.readouterr().err
 
 
-@pytest.mark.parametrize("name, judge_name", [("generator_conditioned", "judge_default"),
+@pytest.mark.parametrize("name, judge_name", [("generator_conditioned", "judge_demos_tcn"),
                                               ("generator_conditioned_refined", "judge_refined"),
-                                              ("generator_conditioned_refined_tcn", "judge_refined_tcn")])
+                                              ("experiments/generator_conditioned_refined_tcn", "experiments/judge_refined_tcn")])
 def test_shipped_conditioned_generator_obeys_each_plans_limits(name, judge_name):
     """On 200 environments with limits drawn from its ranges, every plan holds its own q̇_max,
     f_min, f_max to the soft tolerance, and ends at the object."""

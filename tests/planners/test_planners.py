@@ -27,7 +27,7 @@ PROBLEMS = REPO / "judgeopt" / "tasks" / "scoop" / "problems"
 def judge():
     from judgeopt.judge.store import load_judge
 
-    return load_judge(ROOT / "models" / "judge_default")[0]
+    return load_judge(ROOT / "models" / "judge_demos_tcn")[0]
 
 
 @pytest.fixture(scope="module")
@@ -136,7 +136,7 @@ def test_direct_reports_infeasible_without_a_traceback(direct, judge):
     assert r.status == "infeasible" and r.plan is None and "limits.qdot_max" in r.info["conflict"]
 
 
-@pytest.mark.parametrize("stem", ["judge_refined", "judge_default"])  # an LSTM, and a TCN with many ReLU kinks
+@pytest.mark.parametrize("stem", ["judge_refined", "judge_demos_tcn"])  # an LSTM, and a TCN with many ReLU kinks
 def test_direct_p_min_constraint(stem):
     from judgeopt.judge.casadi_fn import build_casadi_judge
     from judgeopt.judge.store import load_judge
@@ -310,7 +310,7 @@ def _exported(tmp_path, **change):
                                                  "ipopt_status": "Solve_Succeeded", "judge_backend": "l4casadi"})
     for k, v in change.items():
         setattr(r, k, v)
-    prov = plan_provenance(ROOT / "models" / "judge_default", "abc123", ROOT / "models" / "generator_paper_sim",
+    prov = plan_provenance(ROOT / "models" / "judge_demos_tcn", "abc123", ROOT / "models" / "generator_paper_sim",
                            command="judgeopt solve --save-json plan.json")
     return r, problem, write_json(r, problem, tmp_path / "plan.json", prov)
 
@@ -336,7 +336,7 @@ def test_plan_json_reads_back_the_plan_with_its_context_and_provenance(tmp_path)
     y, f = x[:, 0], x[:, 2]
     assert np.abs(np.array(fine["y"]) - y).max() < 1e-9 and np.abs(np.array(fine["f"]) - f).max() < 1e-6
     p = rec["provenance"]
-    assert p["judge"] == {"path": str(ROOT / "models" / "judge_default"), "weights_sha256": "abc123",
+    assert p["judge"] == {"path": str(ROOT / "models" / "judge_demos_tcn"), "weights_sha256": "abc123",
                           "backend": "l4casadi"}  # the direct solve's CasADi function, from its result
     gen_meta = json.loads((ROOT / "models" / "generator_paper_sim.json").read_text())
     assert p["generator"]["weights_sha256"] == gen_meta["weights_sha256"] and p["generator"]["role"] == "warm start"

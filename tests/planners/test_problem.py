@@ -71,11 +71,11 @@ def test_a_base_next_to_the_file_comes_first(tmp_path):
 def test_the_problem_is_in_parts_and_every_field_is_read_and_set_by_name():
     from judgeopt.planners.problem import GeneratorWeights, Motion, ModelRefs, SolverOptions
 
-    p = Problem(qdot_max=0.4, p_target=0.9, Q=10.0, judge="models/judge_default")
+    p = Problem(qdot_max=0.4, p_target=0.9, Q=10.0, judge="models/judge_demos_tcn")
     assert (type(p.motion), type(p.solver), type(p.generator), type(p.models)) == (Motion, SolverOptions,
                                                                                    GeneratorWeights, ModelRefs)
-    assert (p.motion.qdot_max, p.solver.p_target, p.generator.Q, p.models.judge) == (0.4, 0.9, 10.0, "models/judge_default")
-    assert (p.qdot_max, p.p_target, p.Q, p.judge) == (0.4, 0.9, 10.0, "models/judge_default")
+    assert (p.motion.qdot_max, p.solver.p_target, p.generator.Q, p.models.judge) == (0.4, 0.9, 10.0, "models/judge_demos_tcn")
+    assert (p.qdot_max, p.p_target, p.Q, p.judge) == (0.4, 0.9, 10.0, "models/judge_demos_tcn")
     q = p.with_overrides(tol=1e-4, f_min=5.0)
     assert (q.solver.tol, q.motion.f_min, q.motion.qdot_max, p.solver.tol) == (1e-4, 5.0, 0.4, 1e-6)
     # the flat record plan files, generator files and setting ids have always held: same keys, same order
@@ -98,6 +98,6 @@ def test_a_field_in_its_old_section_still_reads_with_a_note_and_one_in_a_wrong_o
         p = load_problem(old)
     assert (p.generator.Q, p.motion.acc_weight) == (500.0, 2e-3)
     wrong = tmp_path / "wrong.toml"
-    wrong.write_text('base = "paper_sim.toml"\n[solver]\njudge = "models/judge_default"\n')
+    wrong.write_text('base = "paper_sim.toml"\n[solver]\njudge = "models/judge_demos_tcn"\n')
     with pytest.raises(ProblemError, match=r"judge belongs in \[models\], not \[solver\]: move it there"):
         load_problem(wrong)

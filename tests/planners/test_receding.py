@@ -10,7 +10,7 @@ from judgeopt.cli import main
 from judgeopt.files import resolve
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.planners.receding import RecedingConfig, RecedingPlanner
-from judgeopt.planners.solve import Planners
+from judgeopt.planners.loaded import Planners
 from judgeopt.tasks import get_task
 from judgeopt.trajectory import Plan
 
@@ -45,7 +45,7 @@ def test_a_re_plan_keeps_the_measured_part_and_holds_the_limits_on_the_rest(setu
     k = len(measured)
     guess = first.plan.values.copy()
     guess[:k] = measured
-    r = planners.direct.with_prefix(measured).solve(ENV, guess=Plan(problem.dt, guess, first.plan.channels))
+    r = planners["direct"].with_prefix(measured).solve(ENV, guess=Plan(problem.dt, guess, first.plan.channels))
     assert r.status == "solved"
     x = r.plan.values
     np.testing.assert_allclose(x[1:k], measured[1:], atol=1e-9)  # sample 0's position is the problem's start
@@ -62,12 +62,12 @@ def test_a_re_plan_keeps_the_measured_part_and_holds_the_limits_on_the_rest(setu
 def test_a_closed_loop_execution_logs_every_re_plan(setup):
     problem, planners, sim = setup
     first = planners.solve(ENV)[1]
-    loop = RecedingPlanner(planners.direct, RecedingConfig(0.1, "always")).execute(sim, first, ENV,
+    loop = RecedingPlanner(planners["direct"], RecedingConfig(0.1, "always")).execute(sim, first, ENV,
                                                                                   {**ENV, "y_obj": 0.22})
     assert [r.k for r in loop.replans] == list(range(2, 23, 2))  # every 0.1 s until 0.4 s before the end
     assert all(r.seconds > 0 and r.status != "plan kept" for r in loop.replans)
     # the problem's trigger, the judge: in the world as told it stays convinced, so the plan goes on unchanged
-    judged = RecedingPlanner(planners.direct).execute(sim, first, ENV, ENV)
+    judged = RecedingPlanner(planners["direct"]).execute(sim, first, ENV, ENV)
     assert [r.status for r in judged.replans] == ["plan kept"] * 11
     assert all(r.predicted >= problem.p_target for r in judged.replans)
     np.testing.assert_array_equal(judged.executed.values, first.plan.values)

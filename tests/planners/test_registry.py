@@ -1,65 +1,68 @@
-"""A planner added in a few lines is a --method choice, a row of `evaluate planners` and a
-calibration setting, with nothing else changed."""
+"""A planner of one's own in one file (toy_planner.py) and one registration line is a --method
+choice, a row of every evaluation and a calibration setting, with nothing else changed: what the
+built-ins are, each registered the same way."""
 
 from __future__ import annotations
 
 import json
-import time
 
 import pytest
 
 from judgeopt.cli import main
-from judgeopt.planners.base import REGISTRY, Planner, PlannerSpec, register, unregister, with_uses
-from judgeopt.planners.cold_start import default_guess
+from judgeopt.planners.base import (REGISTRY, PlannerSpec, default_planners, group, register, to_build, unregister,
+                                    with_uses)
 from judgeopt.planners.problem import ProblemError
-from judgeopt.planners.result import PlanResult, constraint_residuals
-
-
-class Straight(Planner):
-    """The min-jerk move to the terminal state, pressing at the middle force: no judge involved."""
-
-    method = "straight"
-
-    def __init__(self, problem, judge):
-        self.problem, self.judge = problem, judge
-
-    def solve(self, env, guess=None):
-        t0 = time.perf_counter()
-        plan = default_guess(self.problem, env)
-        p = float(self.judge.predict_proba(plan.as_array()[None], [[env[k] for k in self.judge.config.env_names]])[0])
-        return PlanResult(self.method, env, plan, p, "solved", time.perf_counter() - t0,
-                          constraint_residuals(self.problem, plan, env))
-
-    def with_limits(self, problem):
-        return Straight(problem, self.judge)
 
 
 @pytest.fixture
-def straight():
-    register(PlannerSpec("straight", "the min-jerk move", build=Straight))
+def toy():
+    register(PlannerSpec("toy", "the min-jerk move", "toy_planner:Straight"))  # the one line
     yield
-    unregister("straight")
+    unregister("toy")
 
 
 def test_the_built_ins_are_registered_and_names_are_checked():
     assert list(REGISTRY)[:4] == ["amortized", "direct", "cem", "receding"]
     assert REGISTRY["receding"].closed_loop and REGISTRY["receding"].uses == ("direct",)
     assert with_uses(["receding", "cem"]) == ("direct", "receding", "cem")
-    for bad in ("direct", "both", "receding", "two words"):
+    assert to_build(["direct"]) == ("amortized", "direct")  # the generator's plan warm-starts it
+    assert default_planners() == group("default") == group("both") == ("amortized", "direct")
+    assert "receding" in group("all") and "receding" not in group("all", simulate=False)
+    for bad in ("direct", "both", "default", "all", "receding", "two words"):
         with pytest.raises(ProblemError, match="taken or not a plain name"):
-            register(PlannerSpec(bad, "x"))
+            register(PlannerSpec(bad, "x", "toy_planner:Straight"))
+
+
+@pytest.mark.parametrize("fields, message", [
+    ({}, "give build="), ({"build": "toy_planner:Straight", "uses": ("nowhere",)}, "register it first"),
+    ({"build": "toy_planner:Straight", "models": ("weights",)}, "choose from judge, generator"),
+    ({"build": "toy_planner:Straight", "reads": ("tol",)}, "choose from objective")])
+def test_an_entry_the_rest_could_not_use_is_refused(fields, message):
+    with pytest.raises(ProblemError, match=message):
+        register(PlannerSpec("toy", "x", **fields))
+    assert "toy" not in REGISTRY
 
 
 @pytest.mark.slow
-def test_a_registered_planner_runs_through_solve_and_evaluate(straight, tmp_path, capsys):
-    assert main(["solve", "--method", "straight", "--no-simulate", "--json"]) == 0
+def test_a_registered_planner_runs_through_solve_evaluate_and_calibrate(toy, tmp_path, capsys):
+    assert main(["solve", "--method", "toy", "--no-simulate", "--json"]) in (0, 4)  # 4: unlikely
     out = json.loads(capsys.readouterr().out)
     (r,) = out["results"]
-    assert r["method"] == "straight" and r["status"] == "solved" and r["verdict"] in ("likely", "unlikely")
-    assert main(["evaluate", "planners", "--methods", "straight", "--n", "2", "--jobs", "1", "--quiet",
-                 "--out", str(tmp_path)]) == 0
-    report = (tmp_path / "planners.md").read_text()
-    assert "| straight |" in report
+    assert r["method"] == "toy" and r["status"] == "solved" and r["verdict"] in ("likely", "unlikely")
+    assert r["setting_description"].startswith("toy, judge ")
+    quick = ["--n", "2", "--jobs", "1", "--quiet"]
+    assert main(["evaluate", "planners", "--methods", "toy", "--n", "20", "--jobs", "1", "--quiet",  # the fewest
+                 "--out", str(tmp_path / "planners")]) == 0  # outcomes a calibration is fitted on
+    assert "| toy |" in (tmp_path / "planners" / "planners.md").read_text()
+    assert main(["evaluate", "sweep", "--methods", "toy", "--limits", "f_max=20", "--no-baselines", *quick,
+                 "--out", str(tmp_path / "sweep")]) == 0
+    assert "| toy |" in (tmp_path / "sweep" / "sweep.md").read_text()
+    assert main(["evaluate", "robustness", "--methods", "toy", "--qdot-max", "1.0", "--perturb", "y_obj_offset=0.04",
+                 *quick, "--out", str(tmp_path / "robustness")]) == 0
+    assert "toy" in (tmp_path / "robustness" / "robustness.md").read_text()
+    assert main(["calibrate", str(tmp_path / "planners"), "--methods", "toy", "--min-n", "20",
+                 "--out", str(tmp_path / "calibration.json")]) == 0
+    assert "toy, judge " in capsys.readouterr().out
     with pytest.raises(SystemExit) as exc:  # an unregistered name is a usage error
         main(["solve", "--method", "nowhere"])
     assert exc.value.code == 2

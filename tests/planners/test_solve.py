@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from judgeopt.files import resolve
 from judgeopt.planners.problem import load_problem
-from judgeopt.planners.solve import Planners
+from judgeopt.planners.loaded import Planners
 from judgeopt.tasks.base import Outcome
 
 

@@ -49,13 +49,13 @@ class FakePlanners:
 
     problem: object
     methods: tuple = ("direct",)
-    direct: object = True
-    cem: object = None
-    amortized: object = None
     calls: list = dataclasses.field(default_factory=list)
 
     def with_limits(self, **limits):
         return dataclasses.replace(self, problem=self.problem.with_overrides(**limits))
+
+    def only(self, method):
+        return dataclasses.replace(self, methods=(method,))
 
     def solve(self, env, simulator=None, guess=None):
         self.calls.append(self.problem.f_max)
@@ -112,7 +112,7 @@ def test_infeasible_stays_exit_3(capsys):
 # -- re-planning under other limits ----------------------------------------------------------------------
 @pytest.mark.slow
 def test_with_limits_plans_what_a_fresh_load_for_those_limits_plans():
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     problem = load_problem(resolve("problems/paper_sim.toml"))
     env = {"y_obj": 0.2, "mu": 2.0}
@@ -226,8 +226,13 @@ def test_suggestions_are_searched_only_when_the_plan_to_run_is_unlikely(monkeypa
     class Given:
         problem: object
         results: list
-        direct: object = None
         notes: list = dataclasses.field(default_factory=list)
+
+        def over_env_sets(self):
+            return []
+
+        def warm_up(self, cold=False):
+            pass
 
         def solve(self, env, **kw):
             return self.results
