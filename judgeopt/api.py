@@ -5,8 +5,9 @@ solve with its verdict and simulated outcome, the judge, and the task's simulato
 
     problem = judgeopt.load_problem("paper_sim", qdot_max=0.4)
     report = judgeopt.solve(problem)                 # both planners, each plan replayed in simulation
-    for r in report.results:
-        print(r.method, r.success_probability, r.simulated_success)
+    print(report)                                    # the verdict and one line per planner
+    rows = report.summary()                          # a list of dicts, one per planner (a table when printed)
+    report.plot("plan.png")                          # the plans against their limits, and what simulation measured
 
 Each call is a thin door onto the module that does the work (named in its docstring), so what is
 learnt here carries over to the deeper API.
@@ -15,11 +16,18 @@ learnt here carries over to the deeper API.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from judgeopt.planners.problem import Problem, find_problem
 from judgeopt.planners.problem import load_problem as _load_problem_file
+from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.threads import DEFAULT_THREADS, torch_threads
+
+if TYPE_CHECKING:  # the types only: `import judgeopt` stays light
+    from judgeopt.judge.model import Judge
+    from judgeopt.planners.session import SolveReport
+    from judgeopt.planners.loaded import Planners
+    from judgeopt.tasks.base import Task, TaskSimulator
 
 
 def load_problem(name: str | Path = "paper_sim", **overrides: Any) -> Problem:
@@ -29,28 +37,31 @@ def load_problem(name: str | Path = "paper_sim", **overrides: Any) -> Problem:
     return problem.with_overrides(**overrides) if overrides else problem
 
 
-def load_planners(problem: Problem | str = "paper_sim", methods: Sequence[str] = ("amortized", "direct"),
+def load_planners(problem: Problem | str | Path = "paper_sim", methods: Sequence[str] | None = None,
                   judge: str | Path | None = None, generator: str | Path | None = None,
-                  models_dir: str | Path = "models") -> Any:
+                  models_dir: str | Path = "models") -> Planners:
     """The planners for `problem`, with its judge and (found or given) generator loaded once
-    (judgeopt.planners.solve.Planners; method names: judgeopt.planners.base.planner_names())."""
-    from judgeopt.planners.solve import Planners
+    (judgeopt.planners.loaded.Planners; method names: judgeopt.planners.base.planner_names(), default:
+    its default_planners())."""
+    from judgeopt.planners.loaded import Planners
 
     problem = load_problem(problem) if not isinstance(problem, Problem) else problem
-    return Planners.load(problem, tuple(methods), judge=judge, generator=generator, models_dir=models_dir)
+    return Planners.load(problem, methods, judge=judge, generator=generator, models_dir=models_dir)
 
 
-def solve(problem: Any = "paper_sim", methods: Sequence[str] = ("amortized", "direct"), simulate: bool = True,
-          world: Mapping[str, float] | None = None, threads: int | None = DEFAULT_THREADS, **options: Any) -> Any:
+def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Sequence[str] | None = None,
+          simulate: bool = True, world: Mapping[str, float] | None = None, threads: int | None = DEFAULT_THREADS,
+          **options: Any) -> SolveReport:
     """Plan for the problem's environment and give the `SolveReport` (results, notes, verdict,
-    suggestions) that `judgeopt solve` prints (judgeopt.planners.session.solve). `problem`: a
-    Problem, a name, or planners already loaded (`load_planners`, to solve again without
+    suggestions) that `judgeopt solve` prints (judgeopt.planners.session.solve): `print(report)`
+    gives its verdict in a few lines, `report.summary()` a table, `report.plot(path)` its plans.
+    `problem`: a Problem, a name, or planners already loaded (`load_planners`, to solve again without
     reloading); `simulate`: replay each plan in the task's scene, in `world` where it differs
     from what the planners were told; `threads`: torch threads during the call (judgeopt.threads: one
     holds when the cores are busy; None leaves the process's setting); `options`: session.solve's
     (warm_start, ranges, suggest)."""
     from judgeopt.planners import session
-    from judgeopt.planners.solve import Planners
+    from judgeopt.planners.loaded import Planners
 
     planners = problem if isinstance(problem, Planners) else load_planners(problem, methods)
     sim = simulator(planners.problem.task) if simulate else None
@@ -62,24 +73,24 @@ def solve(problem: Any = "paper_sim", methods: Sequence[str] = ("amortized", "di
             sim.close()
 
 
-def load_judge(path: str | Path | None = None) -> Any:
+def load_judge(path: str | Path | None = None) -> Judge:
     """A trained judge (judgeopt.judge.store.load_judge): `.predict_proba(trajectories, envs)`;
     by default the one `solve` plans with (the default task's default judge; `judgeopt models`)."""
     from judgeopt.files import resolve
     from judgeopt.judge.store import load_judge as load
-    from judgeopt.tasks import DEFAULT_TASK, get_task
+    from judgeopt.tasks import get_task
 
     return load(resolve(path or get_task(DEFAULT_TASK).default_judge, (".json",)))[0]
 
 
-def get_task(name: str = "scoop") -> Any:
+def get_task(name: str = DEFAULT_TASK) -> Task:
     """A task: its channels, environment variables and scene (judgeopt.tasks)."""
     from judgeopt.tasks import get_task as get
 
     return get(name)
 
 
-def simulator(task: str = "scoop") -> Any:
+def simulator(task: str = DEFAULT_TASK) -> TaskSimulator:
     """A new simulator of the task's scene: `.simulate(plan, env)` replays a plan, `.execute(plan,
     env)` steps it (close it when done)."""
     return get_task(task).simulator()

@@ -35,6 +35,7 @@ def test_solve_plans_within_the_limits_and_the_plan_succeeds_in_simulation():
     report = judgeopt.solve(problem, methods=("direct",), suggest=False)
     (r,) = report.results
     assert r.simulated_success is True and report.verdict == "likely"
+    assert len(str(report)) < 2000 and "direct" in str(report) and report.summary()[0]["method"] == "direct"
     v = r.plan.values
     assert np.abs(v[:, 1]).max() <= 0.4 + 1e-9 and abs(v[-1, 0] - 0.22) < 1e-6
     judge = judgeopt.load_judge(problem.judge)
@@ -68,3 +69,79 @@ def test_the_default_judge_is_the_one_solve_plans_with_and_models_marks_it(capsy
     assert marked == [str(planners.judge_path.relative_to(planners.judge_path.parents[1]).with_suffix(""))]
     gen = [e for e in entries if "generator of problems/paper_sim.toml" in e["defaults"]]
     assert len(gen) == 1 and gen[0]["trained_against"] == marked[0]  # the pair solve uses, named as a pair
+
+
+def _report():
+    """A SolveReport as `solve` gives one, built by hand: a replayed plan, a plan with a
+    violated limit and no replay, and a planner that found no plan."""
+    from judgeopt.planners.result import PlanResult
+    from judgeopt.planners.session import SolveReport
+    from judgeopt.trajectory import Plan
+
+    problem = judgeopt.load_problem("paper_sim")
+    env = problem.nominal_env()
+    t = np.arange(problem.steps + 1) * problem.dt
+    plan = Plan.from_columns(problem.dt, problem.channel_spec, 0.2 * t / t[-1], np.full_like(t, 0.2),
+                             np.full_like(t, 15.0))
+    direct = PlanResult("direct", env, plan, 0.97, "solved", 0.42, residuals={"q_end": 0.0, "f_max": 0.0},
+                        iterations=12, simulated_success=True, success_probability=0.93,
+                        probability_source="calibrated", response=plan.values + 0.01)
+    amortized = PlanResult("amortized", env, plan, 0.31, "solved", 0.004, residuals={"q_end": 0.02, "f_max": 0.0},
+                           success_probability=0.31, probability_source="judge")
+    cem = PlanResult("cem", env, None, None, "not_converged", 3.5, message="no sample passed the limits\nmore")
+    return SolveReport(problem, env, None, [amortized, direct, cem])
+
+
+def test_a_report_prints_in_a_few_lines_naming_each_method_and_its_verdict():
+    report = _report()
+    text = str(report)
+    assert text == repr(report) and len(text) < 2000 and len(text.splitlines()) <= 8, text
+    assert text.splitlines()[0] == "SolveReport paper_sim (task scoop): likely, run the direct plan"
+    assert all(m in text for m in ("amortized", "direct", "cem", "likely", "unlikely", "calibrated", "0.93"))
+    for r in report.results:
+        assert len(repr(r)) < 500 and str(r).startswith(f"PlanResult {r.method}: ")
+    direct, cem = report.results[1], report.results[2]
+    assert "likely, success p 0.930 (calibrated)" in str(direct) and "simulated: success" in str(direct)
+    assert str(cem) == "PlanResult cem: no plan (not_converged)\n  no sample passed the limits"
+
+
+def test_the_summary_has_one_row_per_result_with_its_values():
+    report = _report()
+    rows = report.summary()
+    assert isinstance(rows, list) and len(rows) == len(report.results)
+    for row, r in zip(rows, report.results):
+        assert row == r.row() and r.summary() == [row]
+        for key in ("method", "verdict", "success_probability", "predicted_success", "simulated_success", "status",
+                    "max_constraint_violation", "worst_constraint", "iterations", "solve_time_s"):
+            assert row[key] == getattr(r, key), key
+        assert row["probability_source"] == (r.probability_source or None)
+    assert [row["verdict"] for row in rows] == ["unlikely", "likely", None]
+    lines = str(rows).splitlines()  # a text table: a header, a rule, one line per result
+    assert lines[0].split()[:3] == ["method", "verdict", "success_probability"] and len(lines) == 2 + len(rows)
+    assert lines[3].split()[:3] == ["direct", "likely", "0.93"]
+
+
+def test_a_report_plots_its_plans_to_a_png(tmp_path):
+    from matplotlib.figure import Figure
+
+    fig = _report().plot(tmp_path / "plan.png")
+    assert isinstance(fig, Figure) and (tmp_path / "plan.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    labels = [ln.get_label() for ax in fig.axes for ln in ax.get_lines()]
+    assert any("direct: simulated response (success)" in k for k in labels)
+
+
+def test_every_top_level_function_has_a_return_type_and_the_stub_names_each_lazy_name():
+    import ast
+    import inspect
+
+    from judgeopt.files import REPO
+
+    lazy = set(judgeopt._API)
+    for name in lazy:
+        value = getattr(judgeopt, name)
+        if inspect.isfunction(value):
+            returns = inspect.signature(value).return_annotation
+            assert returns not in (inspect.Signature.empty, "Any"), name
+    stub = ast.parse((REPO / "judgeopt" / "__init__.pyi").read_text())
+    named = {a.asname for node in stub.body if isinstance(node, ast.ImportFrom) for a in node.names}
+    assert named == lazy and (REPO / "judgeopt" / "py.typed").exists()

@@ -1,9 +1,11 @@
 """The package layout stays a pipeline: no import cycles between modules or between packages,
-also through imports inside functions, and no private name imported across packages."""
+also through imports inside functions, and no private name imported across packages; and the
+core stays task-agnostic: no task's variable is named outside judgeopt/tasks/."""
 
 from __future__ import annotations
 
 import ast
+import re
 from collections import defaultdict
 
 from judgeopt.files import REPO
@@ -83,3 +85,44 @@ def test_no_import_cycles_between_modules_or_packages():
 def test_no_private_name_is_imported_across_packages():
     _, private = _graph()
     assert private == []
+
+
+def _task_names() -> set[str]:
+    """Every built-in task's environment variables and perturbations (the scoop's y_obj, mu,
+    mu_factor, ...), read from the tasks themselves."""
+    from judgeopt.tasks import BUILTIN, get_task
+
+    return {n for t in map(get_task, BUILTIN) for n in (*t.env_names, *(p.name for p in t.perturbations))}
+
+
+def _named(text: str, names: set[str]) -> list[str]:
+    """The lines of `text` naming any of `names` as a word, in any case and with - for _ (the
+    option --y-obj, the constant Y_OBJ): code, strings, docstrings and comments alike."""
+    alternatives = "|".join(re.escape(n).replace("_", "[_-]") for n in sorted(names, key=len, reverse=True))
+    word = re.compile(rf"(?<![A-Za-z0-9_])(?:{alternatives})(?![A-Za-z0-9_])", re.IGNORECASE)
+    return [f"{i}: {line.strip()}" for i, line in enumerate(text.splitlines(), 1) if word.search(line)]
+
+
+def test_the_name_check_finds_a_planted_name_and_only_whole_words():
+    names = _task_names()
+    assert {"y_obj", "mu", "mu_factor", "sensor_noise"} <= names
+    planted = 'Y_OBJ = "x"\nfriction = env["mu"]\nhelp = "--y-obj 0.2"\n# a mass-factor of 2\n'
+    assert [line[0] for line in _named(planted, names)] == ["1", "2", "3", "4"]
+    assert _named("mutable = emu + y_object + mu_x + env_names\n", names) == []
+
+
+def test_no_task_variable_is_named_outside_the_tasks():
+    """The core works through the Task interface, so a task's environment variables and
+    perturbations are named only under judgeopt/tasks/ (the tasks, and what the built-in ones
+    share): anything else that needs them reads them from the task (Task.default_q_end,
+    demo_panels, trial_spread), and help texts build their examples from the default task
+    (judgeopt.cli.examples). Docstrings and comments count too: they explain the core in its own
+    terms (NAME=VALUE)."""
+    names, found = _task_names(), {}
+    for path in sorted(ROOT.rglob("*.py")):
+        if path.relative_to(ROOT).parts[0] == "tasks":
+            continue
+        lines = _named(path.read_text(), names)
+        if lines:
+            found[str(path.relative_to(REPO))] = lines
+    assert found == {}

@@ -90,7 +90,9 @@ def test_reliability_axes_zoom_to_the_points():
     assert zoomed_range([0.95, 0.97, 0.99, 1.0])[0] == pytest.approx(0.9 - 0.002, abs=1e-9)
     assert zoomed_range([0.95, 1.0])[1] == pytest.approx(1.002, abs=1e-9)
     assert zoomed_range([0.2, 0.7]) == pytest.approx((0.15 - 0.012, 0.75 + 0.012))
-    rows = compare()[:2]
+    from judgeopt.evaluate.tables import table_planners
+
+    rows = compare(table_planners())[:2]
     results = {r.key: [{"predicted_success": p, "simulated_success": i % 10 != 5}  # 90 % observed
                        for i, p in enumerate(np.linspace(0.951, 1.0, 40))] for r in rows}
     fig = plot_reliability(rows, results, "t")

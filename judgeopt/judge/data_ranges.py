@@ -4,8 +4,8 @@ outside them.
 Why: a judge is a network fitted to its data. Asked about a world its demonstrations never
 showed (an object further than any of them, a friction none had), it still answers, often
 with a confident p = 1.000, and nothing in that number says it is a guess. A judge file
-records what its data covered, so whoever prints the number can add "y_obj = 0.35 m is
-outside the judge's data (0.10-0.28)":
+records what its data covered, so whoever prints the number can add "qdot_max = 1.5 m/s is
+outside the judge's data (0.22-1.20)":
 
     train_data.env_ranges       per environment variable, [min, max] over the training data's
                                 environments (train-judge, refine and the ensemble write it)
@@ -104,7 +104,7 @@ def _inside(value: float, lo: float, hi: float) -> bool:
 def format_range(lo: float, hi: float) -> str:
     """0.10-0.28, 1.0-3.0, 0.05-4.0: decimals by the width, more for an end that would otherwise
     be shown further off than the tolerance; "to" where a minus sign would read as the dash; one
-    value (a lab's single y_obj) once."""
+    value (a lab's single object position) once."""
     if hi == lo:
         return f"{lo:g}"
     width, tol = abs(hi - lo), tolerance(min(lo, hi), max(lo, hi))
@@ -145,7 +145,7 @@ def _phrase(name: str, value: float, lo: float, hi: float, unit: str) -> str:
 
 
 def describe(meta: Mapping[str, Any]) -> str:
-    """The recorded ranges in one line (`judgeopt inspect`): "y_obj 0.10-0.28 m, mu 1.0-3.0;
+    """The recorded ranges in one line (`judgeopt inspect`): "NAME 0.10-0.28 m, NAME 1.0-3.0;
     limits qdot_max 0.22-1.20 m/s, ..."; "" where the file records none."""
     units = _units(meta)
 
@@ -159,8 +159,8 @@ def describe(meta: Mapping[str, Any]) -> str:
 
 def outside_data(meta: Mapping[str, Any], env: Mapping[str, float],
                  limits: Mapping[str, float | Sequence[float]] | None = None) -> list[str]:
-    """One short phrase per value outside what the judge learnt from, e.g. "y_obj = 0.35 m is
-    outside the judge's data (0.10-0.28)". A value at a range's edge, or beyond it by at most
+    """One short phrase per value outside what the judge learnt from, e.g. "qdot_max = 1.5 m/s is
+    outside the judge's data (0.22-1.20)". A value at a range's edge, or beyond it by at most
     `tolerance(lo, hi)`, is inside. Variables and limits the file records no range for are not
     mentioned; a per-axis limit (a list) is checked per element and named NAME[axis]."""
     # NaN is outside every range: a world nobody can say the judge has seen

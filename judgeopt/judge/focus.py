@@ -1,7 +1,8 @@
 """Active collection: keep only the random demonstrations a judge is unsure about.
 
-Why: a judge's errors sit near its decision boundary (on the scoop, 80-90 % of judge_default's
-errors fall where its probability lies in (0.02, 0.98), a fifth of random demonstrations).
+Why: a judge's errors sit near its decision boundary (on the scoop, 80-90 % of the errors of the
+demonstrations-only LSTM judge of docs/judge.md fall where its probability lies in (0.02, 0.98), a
+fifth of random demonstrations).
 Simulating a demonstration costs ~0.2 s and judging its command ~1 ms, so drawing candidates
 until the judge is unsure puts several times more of the simulation budget where a judge
 learns (`judgeopt collect --focus JUDGE`).

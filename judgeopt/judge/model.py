@@ -42,7 +42,7 @@ class JudgeConfig:
     horizon: int
     dt: float
 
-    def __init__(self, *, arch: str = DEFAULT_ARCH, net: Any = None, env_names: Sequence[str] = ("y_obj", "mu"),
+    def __init__(self, *, arch: str = DEFAULT_ARCH, net: Any = None, env_names: Sequence[str] | None = None,
                  channels: Sequence[str] = CHANNELS, units: dict[str, str] | None = None,
                  horizon: int = DEFAULT_HORIZON, dt: float = DEFAULT_DT, **net_fields: Any) -> None:
         spec = get_arch(arch)
@@ -57,6 +57,10 @@ class JudgeConfig:
         elif net_fields or not isinstance(net, spec.Config):
             raise JudgeError(f"net must be a {spec.Config.__name__} (the {arch} architecture's fields), given alone")
         self.arch, self.net = arch, net
+        if env_names is None:  # the default task's, as the channels are
+            from judgeopt.tasks import DEFAULT_TASK, get_task
+
+            env_names = get_task(DEFAULT_TASK).env_names
         self.env_names, self.channels = tuple(env_names), tuple(channels)
         self.units = dict(UNITS) if units is None else dict(units)
         self.horizon, self.dt = horizon, dt
@@ -109,8 +113,8 @@ class JudgeConfig:
 def select_env(env: np.ndarray, available: Sequence[str], wanted: Sequence[str]) -> np.ndarray:
     """The columns `wanted` (by name) of an env array whose columns are named `available`.
 
-    Why by name: a judge trained on (y_obj, mu) and one that sees only y_obj (paper Table 4)
-    must both read the same dataset files without relying on column order.
+    Why by name: a judge trained on every environment variable and one that sees only some of
+    them (the paper's Table 4) must both read the same dataset files without relying on column order.
     """
     available = list(available)
     missing = [n for n in wanted if n not in available]
@@ -151,7 +155,7 @@ class Judge(nn.Module):
     # -- normalisation ------------------------------------------------------------------
     def fit_normalization(self, x: np.ndarray, e: np.ndarray) -> None:
         """Per-channel mean/std over all demonstrations and samples; std floored so a
-        constant channel (e.g. a fixed mu) does not divide by zero."""
+        constant channel (e.g. an environment variable held fixed) does not divide by zero."""
         x = np.asarray(x, dtype=np.float64).reshape(-1, self.config.n_channels)
         e = np.asarray(e, dtype=np.float64).reshape(-1, self.config.n_env)
         for name, a in (("x", x), ("e", e)):

@@ -46,7 +46,7 @@ class TrainConfig:
     #: "cosine": learning rate annealed per batch from lr to lr * lr_final over all epochs
     #: (the long flat tail of a constant rate is where the paper spent most of its 500 epochs)
     #: Gaussian noise added to the inputs during training, in units of the normalisation std
-    #: (a sensor-noise augmentation against overfitting; 0 disables)
+    #: (an augmentation against overfitting, as a noisy sensor would add; 0 disables)
     input_noise: float = 0.05
     #: also learn each demonstration from its command (the trajectory the robot was told), with the
     #: same label, where it differs from the response: the planners hand the judge a command, which a

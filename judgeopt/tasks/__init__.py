@@ -16,7 +16,8 @@ from judgeopt.tasks.base import (Channel, EnvironmentRangeError, EnvVar, Outcome
                                  TaskSimulator)
 
 __all__ = ["BUILTIN", "Channel", "EnvVar", "EnvironmentRangeError", "Outcome", "Perturbation", "Task", "TaskError",
-           "TaskSimulator", "get_task", "register_task", "task_names"]
+           "TaskSimulator", "get_task", "register_task", "task_names",
+           "unregister_task"]
 
 #: name -> "module:class"
 BUILTIN = {"scoop": "judgeopt.tasks.scoop:ScoopTask", "scrape": "judgeopt.tasks.scrape:ScrapeTask"}
@@ -29,6 +30,12 @@ _LOADED: dict[str, Task] = {}
 def register_task(name: str, factory: Callable[[], Task]) -> None:
     """Make `factory()` the task called `name` (in this process)."""
     _REGISTERED[name] = factory
+    _LOADED.pop(name, None)
+
+
+def unregister_task(name: str) -> None:
+    """Forget a task added with `register_task` (installed and built-in tasks stay)."""
+    _REGISTERED.pop(name, None)
     _LOADED.pop(name, None)
 
 

@@ -12,17 +12,19 @@ from __future__ import annotations
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
+from types import MappingProxyType
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from judgeopt.errors import UsageError
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON, Channel, Plan
 
-class TaskError(ValueError):
+class TaskError(UsageError, ValueError):
     """An unknown task, or data, a model or a plan made for another task."""
 
 
-class EnvironmentRangeError(ValueError):
+class EnvironmentRangeError(UsageError, ValueError):
     """An environment value outside what the task's simulator accepts."""
 
 
@@ -83,7 +85,7 @@ class Perturbation:
                             f"its physical range {self.physical}")
 
     def label(self, value: float) -> str:
-        """`mass_factor x2`, `y_obj_offset +0.03 m`."""
+        """`NAME x2` for a factor, `NAME +0.03 m` where the value may be negative, else `NAME 0.5 N`."""
         if self.unit == "x":
             return f"{self.name} x{value:g}"
         sign = "+" if self.physical[0] < 0 else ""  # an offset either way shows its sign
@@ -131,6 +133,8 @@ def with_setting(settings: Any, key: str, text: str) -> Any:
             raise TaskError(f"setting {key!r} ({type(current).__name__}) cannot be set from the command line")
     except (KeyError, ValueError):
         raise TaskError(f"setting {key!r} = {text!r}: expected a value like {current!r}") from None
+    if any(isinstance(v, float) and not math.isfinite(v) for v in (value if isinstance(value, tuple) else (value,))):
+        raise TaskError(f"setting {key!r} = {text!r}: expected a finite number like {current!r}")
     return dataclasses.replace(settings, **{head: value})
 
 
@@ -174,12 +178,21 @@ class Task(ABC):
     default_judge: str = ""
     #: the grid of environments demonstrations are collected on with `collect --per-env` (optional)
     demo_grid: dict[str, tuple[float, ...]] | None = None
+    #: the environment variable `judgeopt plot-data` splits demonstrations by, one panel between each
+    #: pair of these edges, so that variable's effect shows (optional; None: one panel of all)
+    demo_panels: tuple[str, tuple[float, ...]] | None = None
+    #: where a problem's plans end unless its file gives q_end: a number, the name of an environment
+    #: variable (the plan ends where the environment puts it) or "free" (the planner's choice)
+    default_q_end: float | str = "free"
     #: ranges of q̇_max, f_min and f_max (lo, hi) wider than any shipped problem, down to limits
     #: under which the task fails: what refinement and the sweep draw limits from (optional)
     wide_limits: dict[str, tuple[float, float]] | None = None
     #: how the world may differ from the one a plan is made for (`Perturbation`); the task's
     #: simulator applies them (`TaskSimulator.perturb`). Empty: none declared
     perturbations: tuple[Perturbation, ...] = ()
+    #: per perturbation, the half-width of a lab's trial-to-trial spread around its nominal value
+    #: (`judgeopt evaluate trials`, judgeopt.evaluate.trials). Empty: every trial the nominal world
+    trial_spread: Mapping[str, float] = MappingProxyType({})
     #: whether the simulator's Outcome.progress grades how near a failed rollout came to success: the
     #: feasibility search climbs it, and `evaluate edge` needs that search to find where outcomes flip
     graded_outcome: bool = False

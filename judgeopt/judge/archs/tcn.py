@@ -75,7 +75,7 @@ class MatmulTCN32(Flat32):
     (T, K * channels) @ (K * channels, channels). For l4casadi32 (its value and adjoint traces).
 
     Why: on one thread a dilated Conv1d of 31 steps costs far more in dispatch and weight
-    reordering than in arithmetic; measured on judge_default (one thread, eager float32) value
+    reordering than in arithmetic; measured on judge_demos_tcn (one thread, eager float32) value
     0.70 ms against 1.64 ms for the convolutions, value + gradient 2.4 against 4.0 ms.
     Same input and output as FlatJudge: a (B, (N+1)*C + E) row of raw values normalised with the
     buffers x_mean, x_std, e_mean, e_std -> (B, 2) [logit, probability].

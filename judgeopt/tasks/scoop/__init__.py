@@ -14,7 +14,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from judgeopt.tasks.base import Task, TaskSimulator
-from judgeopt.tasks.scoop.spec import CHANNELS, ENV_VARS, PAPER_GRID, PERTURBATIONS, scoop_plan
+from judgeopt.tasks.scoop.spec import (CHANNELS, DEMO_PANELS, ENV_VARS, PAPER_GRID, PERTURBATIONS, TRIAL_SPREAD,
+                                       scoop_plan)
 from judgeopt.trajectory import Plan
 
 __all__ = ["CHANNELS", "ENV_VARS", "PAPER_GRID", "PERTURBATIONS", "ScoopSettings", "ScoopTask", "scoop_plan"]
@@ -48,13 +49,17 @@ class ScoopTask(Task):
     channels = CHANNELS
     env_vars = ENV_VARS
     demo_grid = PAPER_GRID
+    demo_panels = DEMO_PANELS
+    # the scoop ends under the object
+    default_q_end = "y_obj"
     # fine-tuned on the planners' replayed outcomes (docs/remedies.md); the paper's judge,
-    # trained on demonstrations only, is models/judge_default
+    # trained on demonstrations only, is models/judge_demos_tcn
     default_judge = "models/judge_refined"
     # q̇_max from what reaches y_obj = 0.28 m; below f_max ~ 15 N no scoop succeeds at high friction
     wide_limits = {"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)}
     # the world unlike the model: friction and position misestimated, mass, size, mat, gains, sensor
     perturbations = PERTURBATIONS
+    trial_spread = TRIAL_SPREAD
     graded_outcome = True
     outcome_measures = (("object_ahead", "the object's centre ahead of the blade centre", "cm", 100.0),
                         ("object_bottom", "the object's lowest point above the plate", "cm", 100.0))

@@ -26,6 +26,10 @@ def scoop_plan(dt: float, y: np.ndarray, ydot: np.ndarray, f: np.ndarray) -> Pla
 
 #: the paper's 3 x 3 grid of demonstration environments (IV-B)
 PAPER_GRID = {"y_obj": (0.10, 0.19, 0.28), "mu": (1.0, 2.0, 3.0)}
+#: `plot-data`'s panels: demonstrations split at these frictions (the paper's Fig. 13 shows its effect)
+DEMO_PANELS = ("mu", (1.5, 2.5))
+#: a lab's trial-to-trial spread (`evaluate trials`): each perturbation's half-width around its nominal
+TRIAL_SPREAD = {"y_obj_offset": 0.005, "mu_factor": 0.1, "mass_factor": 0.1, "sensor_noise": 0.5}
 
 
 #: the paper's real-robot gains (Table 6): Kp diag[1000, 1000, 1000, 2000, 2000, 2000] 1/s^2, Kv diag[40, 40, 40,

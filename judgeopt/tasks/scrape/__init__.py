@@ -19,7 +19,8 @@ from typing import Any, Mapping
 import numpy as np
 
 from judgeopt.tasks.base import Task, TaskSimulator
-from judgeopt.tasks.scrape.spec import CHANNELS, ENV_VARS, F_RANGE, PERTURBATIONS, START, V_MAX, X_RANGE, Y_RANGE
+from judgeopt.tasks.scrape.spec import (CHANNELS, DEMO_PANELS, ENV_VARS, F_RANGE, PERTURBATIONS, START, TRIAL_SPREAD,
+                                        V_MAX, X_RANGE, Y_RANGE)
 
 __all__ = ["CHANNELS", "ENV_VARS", "F_RANGE", "PERTURBATIONS", "START", "V_MAX", "X_RANGE", "Y_RANGE", "ScrapeSettings",
            "ScrapeTask"]
@@ -48,12 +49,14 @@ class ScrapeTask(Task):
     channels = CHANNELS
     env_vars = ENV_VARS
     # fine-tuned on the planners' replayed outcomes under many limits (docs/remedies.md); the judge
-    # trained on demonstrations only is models/scrape/judge
+    # trained on demonstrations only is models/scrape/judge_demos
     default_judge = "models/scrape/judge_refined"
     # the push needs 5 N at mu 0.2 and 28 N at mu 0.7 (docs/tasks.md): f_max from 3 N fails often
     wide_limits = {"qdot_max": (0.2, V_MAX), "f_min": (0.0, 2.0), "f_max": (3.0, F_RANGE[1])}
     # the world unlike the model: friction and the puck's place misestimated, mass, gains, sensor
     perturbations = PERTURBATIONS
+    trial_spread = TRIAL_SPREAD
+    demo_panels = DEMO_PANELS
     graded_outcome = True
     outcome_measures = (("pushed", "how far the puck was pushed along y", "cm", 100.0),
                         ("blade_max_lift", "the blade's highest rise while pushing", "mm", 1000.0))

@@ -43,3 +43,8 @@ PERTURBATIONS = (
     Perturbation("sensor_noise", "N", (0.0, 10.0), (0.5, 2.0), "standard deviation of Gaussian noise on each 1 kHz "
                  "force reading, per axis (seeded per rollout)"),
 )
+#: `plot-data`'s panels: demonstrations split at these frictions, about the terciles of the sampled range
+DEMO_PANELS = ("mu", (0.35, 0.55))
+#: a lab's trial-to-trial spread (`evaluate trials`): each perturbation's half-width around its nominal (the
+#: scoop's widths, what the scrape's trials drew before each task declared its own)
+TRIAL_SPREAD = {"y_obj_offset": 0.005, "mu_factor": 0.1, "mass_factor": 0.1, "sensor_noise": 0.5}
