@@ -19,7 +19,7 @@ from __future__ import annotations
 import importlib
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, Iterable
 
 from judgeopt.planners.problem import ProblemError
 
@@ -188,6 +188,34 @@ def register(spec: PlannerSpec) -> PlannerSpec:
 
 def unregister(name: str) -> None:
     REGISTRY.pop(name, None)
+
+
+#: installed packages' planners: `[project.entry-points."judgeopt.planners"] NAME = "pkg.module:SPEC"`, SPEC a
+#: PlannerSpec; registered when judgeopt.planners is imported, so worker processes see them too
+ENTRY_POINT_GROUP = "judgeopt.planners"
+
+
+def register_installed(found: Iterable[Any] | None = None) -> list[str]:
+    """Register every installed package's planner (`found`: entry points, default the group's) not
+    already registered; the names registered. One that does not load or is no PlannerSpec is a
+    one-line error naming the package's entry."""
+    from importlib.metadata import entry_points
+
+    added = []
+    for ep in entry_points(group=ENTRY_POINT_GROUP) if found is None else found:
+        if ep.name in REGISTRY:
+            continue
+        try:
+            spec = ep.load()
+        except Exception as exc:  # noqa: BLE001 -- an installed package's import error, said in one line
+            raise ProblemError(f"planner entry point {ep.name} = {ep.value!r} does not load ({type(exc).__name__}: "
+                               f"{exc}); fix or uninstall the package that declares it") from None
+        if not isinstance(spec, PlannerSpec) or spec.name != ep.name:
+            raise ProblemError(f"planner entry point {ep.name} = {ep.value!r} must name a PlannerSpec called "
+                               f"{ep.name!r}")
+        register(spec)
+        added.append(spec.name)
+    return added
 
 
 def spec_of(name: str) -> PlannerSpec:

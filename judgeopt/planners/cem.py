@@ -40,6 +40,12 @@ def pchip(*args, **kwargs):
     return PchipInterpolator(*args, **kwargs)
 
 
+def env_key(problem: Problem, env: dict[str, float]) -> int:
+    """A number from the environment's values, mixed into a sampling planner's seed so that a plan
+    does not depend on which other plans ran first."""
+    return zlib.crc32(np.asarray([env[n] for n in problem.env_names], dtype=np.float64).tobytes())
+
+
 @dataclass(frozen=True)
 class CEMConfig:
     knots: int = 6  # per signal (velocity, force)
@@ -126,9 +132,7 @@ class CEMPlanner(Planner):
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
-        # seeded by the environment too, so a plan does not depend on which other plans ran first
-        key = zlib.crc32(np.asarray([env[n] for n in pr.env_names], dtype=np.float64).tobytes())
-        rng = np.random.default_rng([cfg.seed, key])
+        rng = np.random.default_rng([cfg.seed, env_key(pr, env)])
         q_end = pr.terminal_positions(env)
         e = np.repeat(judge_env(self.judge, env)[None], cfg.population, axis=0)
         dim = self.commands.dim

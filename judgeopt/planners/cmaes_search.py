@@ -12,7 +12,6 @@ the two can be measured side by side (benchmarks/bench_sampling.py).
 from __future__ import annotations
 
 import time
-import zlib
 from dataclasses import dataclass
 from typing import Any
 
@@ -20,7 +19,7 @@ import numpy as np
 
 from judgeopt.judge.model import Judge
 from judgeopt.planners.base import Planner
-from judgeopt.planners.cem import CEMConfig, SplineCommands
+from judgeopt.planners.cem import CEMConfig, SplineCommands, env_key
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
 from judgeopt.trajectory import Plan
@@ -41,8 +40,7 @@ class CMAESConfig:
 def env_seed(seed: int, problem: Problem, env: dict[str, float]) -> int:
     """A seed from the config's and the environment's: a plan does not depend on which plans ran
     before it (as the CEM's)."""
-    key = zlib.crc32(np.asarray([env[n] for n in problem.env_names], dtype=np.float64).tobytes())
-    return int(np.random.default_rng([seed, key]).integers(2**31 - 1))
+    return int(np.random.default_rng([seed, env_key(problem, env)]).integers(2**31 - 1))
 
 
 class CMAESPlanner(Planner):

@@ -23,7 +23,7 @@ from judgeopt.files import resolve
 from judgeopt.judge.model import Judge
 from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_planners, planner_names, spec_of,
                                     to_build, with_uses)
-from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
+from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.trajectory import PlanError
 
@@ -72,9 +72,17 @@ def choose_models(problem: Problem, methods: Sequence[str], judge: str | Path | 
         if gpath is not None:
             shas["generator"] = load_generator_meta(gpath)["weights_sha256"]
     if "ensemble" in wanted and problem.ensemble:
-        shas["ensemble"] = sha256_file(resolve(problem.ensemble) / "ensemble.json")
+        manifest = resolve(problem.ensemble) / "ensemble.json"
+        if not manifest.is_file():
+            raise ProblemFileError(f"ensemble {problem.ensemble}: not a judge ensemble (a folder with ensemble.json); "
+                                   "make one with `judgeopt train-ensemble --out DIR` or leave [models] ensemble out")
+        shas["ensemble"] = sha256_file(manifest)
     if "trust_model" in wanted and problem.trust_region is not None:
-        shas["trust_model"] = sha256_file(resolve(problem.trust_model, (".json",)).with_suffix(".json"))
+        trust = resolve(problem.trust_model, (".json",)).with_suffix(".json")
+        if not trust.is_file():
+            raise ProblemFileError(f"trust model {problem.trust_model}: no such trust-region model; fit one with "
+                                   "`judgeopt fit-trust-region` or leave [solver] trust_region out")
+        shas["trust_model"] = sha256_file(trust)
     return ChosenModels(problem, jpath, gpath, shas)
 
 
@@ -208,7 +216,11 @@ class Planners:
         self.descriptions = {m: self.chosen.description(m) for m in self.methods}
         if not self.calibration_file:
             path = resolve(self.problem.calibration) if self.problem.calibration else None
-            if path is None or not path.exists():
+            if path is None:
+                return
+            if not path.exists():
+                self.notes.append(f"calibration {self.problem.calibration}: no such file, so the probabilities are the "
+                                  "judge's own, uncalibrated (fit one with `judgeopt calibrate`)")
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
             self.calibration_file = load_calibration(path)

@@ -9,8 +9,8 @@ import json
 import pytest
 
 from judgeopt.cli import main
-from judgeopt.planners.base import (REGISTRY, PlannerSpec, default_planners, group, register, to_build, unregister,
-                                    with_uses)
+from judgeopt.planners.base import (ENTRY_POINT_GROUP, REGISTRY, PlannerSpec, default_planners, group, register,
+                                    register_installed, to_build, unregister, with_uses)
 from judgeopt.planners.problem import ProblemError
 
 
@@ -66,3 +66,19 @@ def test_a_registered_planner_runs_through_solve_evaluate_and_calibrate(toy, tmp
     with pytest.raises(SystemExit) as exc:  # an unregistered name is a usage error
         main(["solve", "--method", "nowhere"])
     assert exc.value.code == 2
+
+
+def test_an_installed_package_planner_is_registered_from_its_entry_point():
+    from importlib.metadata import EntryPoint
+
+    good = EntryPoint("toy_installed", "toy_planner:SPEC", ENTRY_POINT_GROUP)
+    try:
+        assert register_installed([good]) == ["toy_installed"] and list(REGISTRY)[-1] == "toy_installed"
+        assert register_installed([good]) == []  # registered once
+    finally:
+        unregister("toy_installed")
+    with pytest.raises(ProblemError, match="does not load .*fix or uninstall"):
+        register_installed([EntryPoint("gone", "no_such_module:SPEC", ENTRY_POINT_GROUP)])
+    with pytest.raises(ProblemError, match="must name a PlannerSpec called 'other'"):
+        register_installed([EntryPoint("other", "toy_planner:SPEC", ENTRY_POINT_GROUP)])
+    assert "other" not in REGISTRY and "toy_installed" not in REGISTRY

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 
-from judgeopt.planners.base import Planner
+from judgeopt.planners.base import Planner, PlannerSpec
 from judgeopt.planners.cold_start import default_guess
 from judgeopt.planners.result import PlanResult, constraint_residuals
 
@@ -30,3 +30,8 @@ class Straight(Planner):
 
     def with_limits(self, problem):
         return Straight(problem, self.judge)
+
+
+#: what an installed package's entry point names (`[project.entry-points."judgeopt.planners"] toy_installed =
+#: "toy_planner:SPEC"`)
+SPEC = PlannerSpec("toy_installed", "the min-jerk move, from an installed package", "toy_planner:Straight")
