@@ -309,7 +309,7 @@ def format_model_info(info: dict[str, Any]) -> str:
 
 def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     """Add `train-judge` and `test-judge` to the main parser's subcommands."""
-    from judgeopt.judge.train import TrainConfig
+    from judgeopt.judge.train_config import TrainConfig
     t = subparsers.add_parser(
         "train-judge", help="train the success judge NN_judge on a demonstration file",
         description="Success judge (the paper's LSTM, Fig. 2, Table 2, or another --arch) trained with Adam on the responses; the epoch "

@@ -527,7 +527,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
 
 
 def add_backend_argument(p: argparse.ArgumentParser) -> None:
-    from judgeopt.judge.casadi_fn import BACKENDS, DEFAULT_BACKEND
+    from judgeopt.judge.backends import BACKENDS, DEFAULT_BACKEND
 
     p.add_argument("--casadi-backend", choices=("auto", *BACKENDS), default=DEFAULT_BACKEND,
                    help="how the direct solve evaluates the judge: auto takes torch32 (the float32 network, fastest) "

@@ -9,8 +9,19 @@ casadi_fn.py the judge as a CasADi Function with first derivatives (several back
 cli.py       `judgeopt train-judge`, `judgeopt test-judge`, model inspection
 """
 
-from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, TrajectoryError
-from judgeopt.judge.store import IncompatibleJudgeError, JudgeFileError, check_compatible, load_judge, save_judge
+from importlib import import_module
+from typing import Any
 
-__all__ = ["Judge", "JudgeConfig", "JudgeError", "TrajectoryError", "JudgeFileError", "IncompatibleJudgeError",
-           "check_compatible", "load_judge", "save_judge"]
+#: public name -> the module holding it, imported at first use: importing a light submodule
+#: (judge.errors, judge.backends, judge.train_config) must not load torch
+_WHERE = {"Judge": "model", "JudgeConfig": "model", "JudgeError": "errors", "TrajectoryError": "errors",
+          "JudgeFileError": "store", "IncompatibleJudgeError": "store", "check_compatible": "store",
+          "load_judge": "store", "save_judge": "store"}
+
+__all__ = list(_WHERE)
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _WHERE:
+        raise AttributeError(f"module 'judgeopt.judge' has no attribute {name!r}")
+    return getattr(import_module(f"judgeopt.judge.{_WHERE[name]}"), name)

@@ -62,15 +62,9 @@ from judgeopt.cbuild import CompileError, compiled_library
 from judgeopt.errors import Missing
 from judgeopt.files import publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
+from judgeopt.judge.backends import BACKENDS, DEFAULT_BACKEND, GRAPH_BACKENDS
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
 
-BACKENDS = ("native", "compiled", "torch", "torch32", "l4casadi", "l4casadi32")
-#: the backends that need the network as a CasADi MX graph (Arch.native_logit)
-GRAPH_BACKENDS = ("native", "compiled")
-#: "auto" is a rule, not one backend (choose_backend): for a noise-tolerant use (the direct solve's
-#: judge as a constraint) l4casadi32 where l4casadi is installed and the architecture is in
-#: AUTO_L4CASADI32, else the torch32 callback; otherwise l4casadi (float64) where installed, else native
-DEFAULT_BACKEND = "auto"
 #: architectures whose l4casadi32 measured <= 1.1x the torch32 callback's time for value + gradient
 #: (benchmarks/bench_judge_casadi.py, docs/judge.md "l4casadi in float32"); "auto" gives the
 #: others torch32. An architecture is added here by measurement, not by default.
