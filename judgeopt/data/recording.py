@@ -10,7 +10,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 from dataclasses import dataclass, field, replace
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any, Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -121,6 +121,25 @@ class RawDemo:
 _KEY = re.compile(r"^\s*([A-Za-z_][A-Za-z0-9_]*)\s*=\s*([^:,]+?)\s*(?::\s*(-?\d{1,9})\s*)?$")
 
 
+def mapped_items(text: str | None, pattern: re.Pattern[str], flag: str, form: str,
+                 allowed: Sequence[str]) -> Iterator[tuple[str, str, str | None, str]]:
+    """Each item of a comma-separated NAME=VALUE[:PART] map (`--hdf5-keys`, `--keys`, `--topics`)
+    as (name, value, part, the item's text): matched by `pattern` (three groups), its name one of
+    `allowed` and mapped once; a one-line error naming `flag` and the `form` expected otherwise."""
+    seen: set[str] = set()
+    for item in filter(None, (p.strip() for p in (text or "").split(","))):
+        m = pattern.match(item)
+        if not m:
+            raise ImportError_(f"{flag}: {item!r} is not {form}")
+        name, value, part = m.groups()
+        if name not in allowed:
+            raise ImportError_(f"{flag}: unknown name {name!r}; map one of {list(allowed)}")
+        if name in seen:
+            raise ImportError_(f"{flag}: {name!r} is mapped twice")
+        seen.add(name)
+        yield name, value, part, item
+
+
 def parse_keys(text: str | None, env_names: Sequence[str] = (), channels: Sequence[str] = CHANNELS,
                flag: str = "--hdf5-keys", scalars: Sequence[str] = ("success", "dt"),
                columns_everywhere: bool = False) -> dict[str, str]:
@@ -130,15 +149,7 @@ def parse_keys(text: str | None, env_names: Sequence[str] = (), channels: Sequen
     out: dict[str, str] = {}
     per_step = ("t", *channels)
     allowed = (*per_step, *scalars, *env_names)
-    for item in filter(None, (p.strip() for p in (text or "").split(","))):
-        m = _KEY.match(item)
-        if not m:
-            raise ImportError_(f"{flag}: {item!r} is not NAME=PATH or NAME=PATH:COLUMN")
-        name, path, column = m.groups()
-        if name not in allowed:
-            raise ImportError_(f"{flag}: unknown name {name!r}; map one of {list(allowed)}")
-        if name in out:
-            raise ImportError_(f"{flag}: {name!r} is mapped twice")
+    for name, path, column, item in mapped_items(text, _KEY, flag, "NAME=PATH or NAME=PATH:COLUMN", allowed):
         path = re.sub(r"^[\s/]+|[\s/]+$", "", path)  # "/obs/ft/" and "obs/ft" are one path
         if not path:
             raise ImportError_(f"{flag}: {item!r} names no PATH")

@@ -45,7 +45,6 @@ import json
 import logging
 import os
 import shutil
-import subprocess
 import tempfile
 import time
 import warnings

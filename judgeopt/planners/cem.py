@@ -16,7 +16,8 @@ Each iteration keeps the best `elite` fraction and refits a diagonal Gaussian to
 
 from __future__ import annotations
 
-from typing import Any
+from abc import abstractmethod
+from typing import Any, ClassVar
 
 import time
 import zlib
@@ -112,17 +113,31 @@ class SplineCommands:
         return np.stack(qs + vs + fs, axis=2)[:, :, channel_order(pr)], penalty
 
 
-class CEMPlanner(Planner):
-    """Cross-entropy search over spline commands, scored by the judge's logit."""
+class SplineSearch(Planner):
+    """A sampling search over `SplineCommands` with its own `Config` (knots among its fields): the
+    CEM here, CMA-ES in judgeopt.planners.cmaes_search. New limits need only new commands."""
 
-    method = "cem"
+    Config: ClassVar[type]
 
-    def __init__(self, problem: Problem, judge: Judge, config: CEMConfig | None = None):
-        self.problem, self.judge, self.config = problem, judge, config or CEMConfig()
+    def __init__(self, problem: Problem, judge: Judge, config: Any = None):
+        self.problem, self.judge, self.config = problem, judge, config or self.Config()
         self.commands = SplineCommands(problem, self.config.knots)
 
-    def with_limits(self, problem: Problem) -> "CEMPlanner":
-        return CEMPlanner(problem, self.judge, self.config)
+    #: the search's name in a result's message
+    label: ClassVar[str]
+
+    def with_limits(self, problem: Problem) -> "SplineSearch":
+        return type(self)(problem, self.judge, self.config)
+
+    def score(self, z: np.ndarray, q_end: np.ndarray, e: np.ndarray) -> np.ndarray:
+        """(B, dim) knots -> judge logit minus penalty x violation (higher is better)."""
+        x, penalty = self.commands.decode(z, q_end)
+        return self.judge.predict_logit(x, e[:len(z)]) - self.config.penalty * penalty
+
+    @abstractmethod
+    def search(self, q_end: np.ndarray, e: np.ndarray, seed: int) -> tuple[np.ndarray, int]:
+        """The best knots found, (1, dim), and the iterations run, for one environment (its
+        terminal positions, its judge inputs repeated population times, a seed of its own)."""
 
     def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
         from judgeopt.planners.direct import judge_env
@@ -132,9 +147,29 @@ class CEMPlanner(Planner):
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
-        rng = np.random.default_rng([cfg.seed, env_key(pr, env)])
         q_end = pr.terminal_positions(env)
         e = np.repeat(judge_env(self.judge, env)[None], cfg.population, axis=0)
+        best_z, iterations = self.search(q_end, e, env_key(pr, env))
+        x, _ = self.commands.decode(best_z, q_end)
+        plan = Plan.from_array(pr.dt, x[0], pr.channel_spec)
+        elapsed = time.perf_counter() - t0
+        prob = float(self.judge.predict_proba(x, e[:1])[0])
+        return PlanResult(self.method, env, plan, prob, "sampled", elapsed, constraint_residuals(pr, plan, env),
+                          iterations=iterations,
+                          message=f"{self.label}: {iterations} x {cfg.population} judged samples (limits by "
+                                  "construction, terminal position by penalty)")
+
+
+class CEMPlanner(SplineSearch):
+    """Cross-entropy search over spline commands, scored by the judge's logit."""
+
+    method = "cem"
+    Config = CEMConfig
+    label = "CEM"
+
+    def search(self, q_end: np.ndarray, e: np.ndarray, seed: int) -> tuple[np.ndarray, int]:
+        cfg = self.config
+        rng = np.random.default_rng([cfg.seed, seed])
         dim = self.commands.dim
         mean, std = np.full(dim, 0.5), np.full(dim, cfg.init_std)
         n_elite = max(2, int(round(cfg.elite * cfg.population)))
@@ -142,18 +177,10 @@ class CEMPlanner(Planner):
         for _ in range(cfg.iterations):
             z = np.clip(mean + std * rng.standard_normal((cfg.population, dim)), 0.0, 1.0)
             z[0] = np.clip(mean, 0.0, 1.0)  # the current mean is always a candidate
-            x, penalty = self.commands.decode(z, q_end)
-            score = self.judge.predict_logit(x, e) - cfg.penalty * penalty
+            score = self.score(z, q_end, e)
             order = np.argsort(-score)
             if score[order[0]] > best_score:
                 best_score, best_z = float(score[order[0]]), z[order[:1]]
             elite = z[order[:n_elite]]
             mean, std = elite.mean(0), np.maximum(elite.std(0), cfg.min_std)
-        x, _ = self.commands.decode(best_z, q_end)
-        plan = Plan.from_array(pr.dt, x[0], pr.channel_spec)
-        elapsed = time.perf_counter() - t0
-        prob = float(self.judge.predict_proba(x, e[:1])[0])
-        return PlanResult(self.method, env, plan, prob, "sampled", elapsed, constraint_residuals(pr, plan, env),
-                          iterations=cfg.iterations,
-                          message=f"CEM: {cfg.iterations} x {cfg.population} judged samples (limits by construction, "
-                                  "terminal position by penalty)")
+        return best_z, cfg.iterations

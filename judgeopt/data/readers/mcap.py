@@ -48,7 +48,7 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 
 from judgeopt.data.readers.base import Flag, Reader, Source
-from judgeopt.data.recording import LABELS, ImportError_, ImportSpec, RawDemo, env_fix
+from judgeopt.data.recording import LABELS, ImportError_, ImportSpec, RawDemo, env_fix, mapped_items
 
 POSE = "geometry_msgs/msg/PoseStamped"
 WRENCH = "geometry_msgs/msg/WrenchStamped"
@@ -87,15 +87,7 @@ def parse_topics(text: str | None, env_names: Sequence[str] = (),
     environment names take a topic alone. Topics are made absolute, as a bag names them."""
     out: dict[str, str] = {}
     allowed = (*channels, "episode", "label", *env_names)
-    for item in filter(None, (p.strip() for p in (text or "").split(","))):
-        m = _TOPIC.match(item)
-        if not m:
-            raise ImportError_(f"{FLAG}: {item!r} is not NAME=TOPIC:AXIS or NAME=TOPIC")
-        name, topic, axis = m.groups()
-        if name not in allowed:
-            raise ImportError_(f"{FLAG}: unknown name {name!r}; map one of {list(allowed)}")
-        if name in out:
-            raise ImportError_(f"{FLAG}: {name!r} is mapped twice")
+    for name, topic, axis, item in mapped_items(text, _TOPIC, FLAG, "NAME=TOPIC:AXIS or NAME=TOPIC", allowed):
         if name in channels and axis not in AXES:
             got = f"axis {axis!r} is not" if axis else "no axis; AXIS is"
             raise ImportError_(f"{FLAG}: {item!r}: {got} one of {', '.join(AXES)} ({name}=TOPIC:AXIS)")
