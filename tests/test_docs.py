@@ -65,10 +65,10 @@ def test_the_site_builds_strict_and_its_pages_render_in_chromium(site, tmp_path)
 
     dom, text = _rendered_text(site / "api" / "index.html", tmp_path / "profile")
     assert 'id="judgeopt.api.solve"' in dom, "judgeopt.api.solve has no entry on the API page"
-    start = text.index("solve(problem")
+    start = text.index("solve(problem:")  # the signature, not an example in a docstring
     signature = text[start:text.index(")", text.index("**options", start)) + 1]
     for name, p in inspect.signature(api.solve).parameters.items():  # every parameter, as the code has it
         shown = f"**{name}" if p.kind is p.VAR_KEYWORD else f"{name}:"
         assert shown in signature, f"{shown} missing from the rendered signature {signature!r}"
-    assert "simulate: bool = True" in signature and "problem: Any = 'paper_sim'" in signature
+    assert "simulate: bool = True" in signature and "problem: Problem | Planners | str | Path = 'paper_sim'" in signature
     assert "Plan for the problem's environment" in text  # its docstring beside it
