@@ -46,8 +46,11 @@ def test_an_interrupt_stops_a_parallel_commands_workers(command, signum, tmp_pat
     argv = {"collect": ["collect", "--out", str(out), "--n", "400", "--chunk", "5"],
             "evaluate": ["evaluate", "planners", "--n", "40", "--chunk", "2", "--methods", "amortized",
                          "--no-baselines", "--out", str(out)]}[command]
+    # Ctrl-C as at a terminal: a shell starting the tests in the background (`cmd &`) ignores SIGINT,
+    # and a child inherits that, so the command is started with the default disposition
     p = subprocess.Popen([sys.executable, "-m", "judgeopt.cli", *argv, "--jobs", "2", "--quiet"],
-                         stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                         stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     t0 = time.time()
     while time.time() - t0 < 180 and len(_chunks(out, command)) < 2 and p.poll() is None:
         time.sleep(0.2)
