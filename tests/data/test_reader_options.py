@@ -212,7 +212,6 @@ def _bag(path: Path) -> Path:
     """One demonstration: pose at 100 Hz (x = 0.05 + 0.1 t, y = 9: the other axis), wrench at 400 Hz
     (force y = 7 - t, z = 99), friction on a topic; header stamps from an epoch."""
     pytest.importorskip("rosbags")
-    from rosbags.rosbag2 import StoragePlugin, Writer
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.LATEST)
@@ -239,13 +238,9 @@ def _bag(path: Path) -> Path:
             ns = epoch + k * 10**9 // hz
             messages.append((ns + 1000, topic, make(ns, k / hz)))
     messages.append((epoch + 5 * 10**8, "/env/mu", T["std_msgs/msg/Float64"](data=0.8)))
-    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
-        conns = {}
-        for log, topic, msg in sorted(messages, key=lambda m: m[0]):
-            if topic not in conns:
-                conns[topic] = w.add_connection(topic, msg.__msgtype__, typestore=ts)
-            w.write(conns[topic], log, ts.serialize_cdr(msg, msg.__msgtype__))
-    return path
+    from test_ros2 import write_bag
+
+    return write_bag(path, messages)
 
 
 def test_bag_topics_axes_environment_topic_and_labels_by_bag_name(tmp_path):
