@@ -42,6 +42,8 @@ def _per_axis(convert):
 
 
 def _parser_type(name: str):
+    if name in ("a_max", "jerk_max", "fdot_max"):
+        return _per_axis(float)  # inf allowed: no limit; the problem checks > 0
     if name == "q_end":
         return _per_axis(_number_or_name)
     if name in AXIS_FIELDS + FORCE_FIELDS:
@@ -64,6 +66,11 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     for section, names in SECTIONS.items():
         for name in names:
             shown = getattr(default, name)
+            if name == "bounds":  # one option per bound, added to the file's
+                g.add_argument("--bound", dest="add_bounds", action="append", metavar="NAME:LO:HI@T0:T1",
+                               help=f"{FIELD_HELP[name]}; repeat for more, added to the file's [{section}] {name} "
+                               "(inf: no bound on that side; without @T0:T1 the whole motion)")
+                continue
             g.add_argument(f"--{name.replace('_', '-')}", dest=f"set_{name}", type=_parser_type(name), metavar="X",
                            help=f"{FIELD_HELP[name]} ([{section}] {name}; {Path(DEFAULT_PROBLEM).name}: {shown})")
             if name == "judge":  # the name older scripts use; one flag in --help
@@ -100,6 +107,8 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
     problem = load_problem(resolve(args.problem))
     values: dict[str, Any] = {k[4:]: v for k, v in vars(args).items() if k.startswith("set_") and v is not None}
     values.update({k[4:]: v for k, v in vars(args).items() if k.startswith("env_") and v is not None})
+    if getattr(args, "add_bounds", None):
+        values["bounds"] = [*problem.bounds, *args.add_bounds]
     from judgeopt.tasks import get_task
 
     names = get_task(problem.task).env_names

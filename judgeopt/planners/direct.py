@@ -39,6 +39,7 @@ from judgeopt.judge.model import Judge, sigmoid
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
 from judgeopt.planners.base import BuildContext, Planner
+from judgeopt.planners.constraints import RATE_LIMITS, per_channel
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion, load_trust_region
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result
@@ -46,6 +47,11 @@ from judgeopt.trajectory import Plan
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs
 SCALE_Q, SCALE_V, SCALE_A, SCALE_F = 0.1, 0.5, 5.0, 10.0
+#: typical jerk (m/s^3) and force rate (N/s): their rows are divided by these
+SCALE_J, SCALE_FDOT = 100.0, 100.0
+#: [constraints] fields the compiled solver holds as bounds (a_max, the windows) or as rows whose
+#: bounds alone change (jerk_max, fdot_max: the rows are always there, free when unset)
+BOUND_FIELDS = (*LIMIT_NAMES, *RATE_LIMITS, "bounds")
 
 STATUS = {"Solve_Succeeded": "solved", "Solved_To_Acceptable_Level": "solved",
           "Infeasible_Problem_Detected": "infeasible", "Maximum_Iterations_Exceeded": "not_converged",
@@ -200,12 +206,22 @@ class DirectPlanner(Planner):
         effort = pr.acc_weight * dt * cs.sumsqr(a) + pr.force_rate_weight * cs.sumsqr(rate) / dt
         x = cs.vertcat(cs.vec(zq), cs.vec(zv), cs.vec(za), cs.vec(zf))
         params = [cs.vec(env), q_end]
-        self._target = pr.objective == "target"
+        self._target = pr.objective in ("target", "min_time")
         if self._target:  # slack s >= 0 in logit units: logit + s >= target, s costs SLACK_WEIGHT (s + s^2)
             slack, x_ref = cs.MX.sym("slack"), cs.MX.sym("x_ref", x.size1())
             params.append(x_ref)
             effort += PROXIMITY_WEIGHT * cs.sumsqr(x - x_ref) + SLACK_WEIGHT * (slack + slack ** 2)
             x = cs.vertcat(x, slack)
+        # [constraints]' rows: the jerk per axis, the force rate per channel (free where unset), the arm's joints
+        jerk = (a[1:, :] - a[:-1, :]) / dt / SCALE_J
+        path = [cs.vec(jerk), cs.vec(rate / dt / SCALE_FDOT)]
+        self._joints = None
+        if pr.joint_limit_scale is not None:
+            from judgeopt.planners.joint_limits import joint_map
+
+            self._joints = joint_map(pr)
+            path.append(self._joints.rows(qs, vs, f))
+        g_path = cs.vertcat(*path)
         logits = [self.cjudge.fn(traj, env[:, k])[0] if not self.members else self._pessimistic(traj, env[:, k])
                   for k in range(self.samples)]
         # the judge's rows: one logit, one per environment of a set ("worst"), or the logit of the
@@ -220,7 +236,7 @@ class DirectPlanner(Planner):
         def objective_and_constraints(z: cs.MX) -> tuple[cs.MX, cs.MX]:
             """The NLP with the judge's rows given as z (the real ones, or stand-ins for the Hessian)."""
             obj = effort if self._target else effort + pr.P * softplus(-z)
-            g = [g_vel, g_pos, g_term, z + slack if self._target else z]
+            g = [g_vel, g_pos, g_term, z + slack if self._target else z, g_path]
             if pr.trust_region is not None:
                 g.append(self.trust.casadi_distance2(traj) / pr.trust_region ** 2)  # <= 1
             return obj, cs.vertcat(*g)
@@ -251,6 +267,9 @@ class DirectPlanner(Planner):
         opts.update({f"ipopt.{k}": v for k, v in self.options.ipopt.items()})
         self.solver = cs.nlpsol("judgeopt_direct", "ipopt", nlp, opts)
         self._n_eq = 2 * n * na + int(self._fixed.sum()) + na
+        self._n_path = g_path.size1()
+        self._rest_from: int | None = None
+        self._earliest_search = self.problem.objective == "min_time"  # solve() searches the time (min_time.py)
         self._n_plan = x.size1() - int(self._target)
         self._bounds()
 
@@ -282,10 +301,12 @@ class DirectPlanner(Planner):
             return np.concatenate([np.full(rows, x / scale) for x in values])
 
         free = np.full(pr.n_axes, np.inf)
+        a_max = per_channel(pr.a_max, pr.n_axes, "a_max")
         lb = np.concatenate([column(pr.vec("q_min"), n, SCALE_Q), column(pr.vec("qdot_min"), n, SCALE_V),
-                             column(-free, n, 1.0), column(pr.vec("f_min"), n + 1, SCALE_F)])
+                             column(-a_max, n, SCALE_A), column(pr.vec("f_min"), n + 1, SCALE_F)])
         ub = np.concatenate([column(pr.vec("q_max"), n, SCALE_Q), column(pr.vec("qdot_max"), n, SCALE_V),
-                             column(free, n, 1.0), column(pr.vec("f_max"), n + 1, SCALE_F)])
+                             column(a_max, n, SCALE_A), column(pr.vec("f_max"), n + 1, SCALE_F)])
+        self._windows(lb, ub)
         # the judge's row: its logit (plus the slack) at least the target, or p_min's logit, or free;
         # the slack never relaxes p_min, which is hard
         self._hard = hard = _logit(pr.p_min) if pr.p_min is not None else -np.inf
@@ -294,19 +315,83 @@ class DirectPlanner(Planner):
             lb, ub = np.append(lb, 0.0), np.append(ub, floor - hard)
         self._lbx, self._ubx = lb, ub
         rows = np.full(self._n_judge, 1.0)
-        self._lbg = np.concatenate([np.zeros(self._n_eq), floor * rows])
-        self._ubg = np.concatenate([np.zeros(self._n_eq), np.inf * rows])
+        path = np.concatenate([column(per_channel(pr.jerk_max, pr.n_axes, "jerk_max"), n - 1, SCALE_J),
+                               column(per_channel(pr.fdot_max, pr.n_forces, "fdot_max"), n, SCALE_FDOT)])
+        if self._joints is not None:
+            path = np.append(path, np.full(self._n_path - len(path), pr.joint_limit_scale))
+        self._lbg = np.concatenate([np.zeros(self._n_eq), floor * rows, -path])
+        self._ubg = np.concatenate([np.zeros(self._n_eq), np.inf * rows, path])
         self._judge_rows = slice(self._n_eq, self._n_eq + self._n_judge)
         if pr.trust_region is not None:
             self._lbg, self._ubg = np.append(self._lbg, -np.inf), np.append(self._ubg, 1.0)
+
+    def _index(self, block: int, channel: int, sample: int) -> int:
+        """Where sample `sample` of one axis's q (block 0), q̇ (1), a (2) or one force channel's f
+        (3) lies among the plan variables (q, q̇, a from sample 1, f from sample 0)."""
+        n, na = self.problem.steps, self.problem.n_axes
+        return block * n * na + channel * n + sample - 1 if block < 3 else 3 * n * na + channel * (n + 1) + sample
+
+    def _windows(self, lb: np.ndarray, ub: np.ndarray) -> None:
+        """[constraints]' window bounds onto the variable bounds (sample 0 of q and q̇ is the
+        start, not a variable: a window that excludes it is `Problem.check_feasible`'s to report)."""
+        pr = self.problem
+        spec = pr.channel_spec
+        pos = [c.name for c in spec if c.kind == "position"]
+        where = {c.name: ((0, pos.index(c.name), SCALE_Q) if c.kind == "position" else
+                          (1, pos.index(c.of), SCALE_V) if c.kind == "velocity" else
+                          (3, [d.name for d in spec if d.kind == "force"].index(c.name), SCALE_F)) for c in spec}
+        for b in pr.constraints.parsed_bounds():
+            block, channel, scale = where[b.name]
+            for k in b.samples(pr.steps, pr.dt):
+                if block < 3 and k == 0:
+                    continue
+                j = self._index(block, channel, k)
+                lb[j], ub[j] = max(lb[j], b.lo / scale), min(ub[j], b.hi / scale)
+
+    def resting_from(self, k: int) -> "DirectPlanner":
+        """The same compiled solver for one plan at rest at the terminal state from sample k on
+        (min-time's candidates; the terminal position is the environment's, set at solve time)."""
+        if not 1 <= k <= self.problem.steps:
+            raise ProblemError(f"resting_from: sample {k}; give 1 to {self.problem.steps}")
+        new = copy.copy(self)
+        new._rest_from, new._earliest_search = k, False
+        return new
+
+    def _rested(self, env: dict[str, float]) -> "DirectPlanner":
+        """This solver with the rest from `_rest_from` on, in `env`: q̇ (and q, where it has an
+        end) fixed there; the position steps between fixed samples hold already, so their rows
+        are freed (fixed variables in an equality would leave Ipopt a singular system)."""
+        pr, n, na = self.problem, self.problem.steps, self.problem.n_axes
+        lbx, ubx, lbg, ubg = self._lbx.copy(), self._ubx.copy(), self._lbg.copy(), self._ubg.copy()
+        ends, qd_end = pr.terminal_positions(env), pr.vec("qdot_end")
+        for i in range(na):
+            for k in range(self._rest_from, n + 1):
+                jv = self._index(1, i, k)
+                lbx[jv] = ubx[jv] = qd_end[i] / SCALE_V
+                if not np.isnan(ends[i]):
+                    jq = self._index(0, i, k)
+                    lbx[jq] = ubx[jq] = ends[i] / SCALE_Q
+                    if k > self._rest_from:
+                        row = n * na + i * n + k - 1
+                        lbg[row], ubg[row] = -np.inf, np.inf
+        new = copy.copy(self)
+        new._lbx, new._ubx, new._lbg, new._ubg, new._rest_from = lbx, ubx, lbg, ubg, None
+        return new
 
     def with_limits(self, problem: Problem) -> "DirectPlanner":
         """The same compiled solver for a problem that differs only in its position, velocity
         and force limits (they are variable bounds): no rebuild, so re-planning under relaxed
         or sampled limits costs one solve."""
-        same = {k: v for k, v in problem.to_dict().items() if k not in LIMIT_NAMES}
-        if same != {k: v for k, v in self.problem.to_dict().items() if k not in LIMIT_NAMES}:
-            raise ProblemError("with_limits: the problems differ in more than their limits; build a new DirectPlanner")
+        same = {k: v for k, v in problem.to_dict().items() if k not in BOUND_FIELDS}
+        if same != {k: v for k, v in self.problem.to_dict().items() if k not in BOUND_FIELDS}:
+            if {k: v for k, v in same.items() if k != "joint_limit_scale"} == {
+                    k: v for k, v in self.problem.to_dict().items() if k not in BOUND_FIELDS and k != "joint_limit_scale"}:
+                if (problem.joint_limit_scale is None) != (self.problem.joint_limit_scale is None):  # rows come or go
+                    return DirectPlanner(problem, self.judge, self.cjudge, self.options, self.members, self.trust,
+                                         self.samples, self.case)
+            else:
+                raise ProblemError("with_limits: the problems differ in more than their limits; build a new "
+                                   "DirectPlanner")
         new = copy.copy(self)
         new.problem = problem
         new._bounds()
@@ -408,6 +493,12 @@ class DirectPlanner(Planner):
         position still comes from `env`, what the user said)."""
         pr = self.problem
         env = pr.env_dict(env)
+        if self._earliest_search:
+            from judgeopt.planners.min_time import earliest
+
+            return earliest(self, env, guess, env_set)
+        if self._rest_from is not None:
+            return self._rested(env).solve(env, guess, env_set)
         env_set = [pr.env_dict(e) for e in env_set] if env_set is not None else [env]
         if len(env_set) != self.samples:
             raise ProblemError(f"this direct solve plans for {self.samples} environment(s) at once, got {len(env_set)}")

@@ -30,14 +30,17 @@ import numpy as np
 
 from judgeopt.errors import BadInput, Infeasible, UsageError
 from judgeopt.files import PACKAGE, resolve
+from judgeopt.planners.constraints import ConstraintError, Constraints, conflict, describe
+from judgeopt.planners.constraints import validate as validate_constraints
 from judgeopt.formats.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
 #: a terminal position left to the planner
 FREE = "free"
-#: the direct solve's objectives (Problem.objective)
-OBJECTIVES = ("target", "log_p")
+#: the direct solve's objectives (Problem.objective); min_time: the earliest rest at the terminal
+#: state with the judge at p_target (planners/min_time.py)
+OBJECTIVES = ("target", "log_p", "min_time")
 #: fields holding one value per position axis (or one for all), and one per force channel
 AXIS_FIELDS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "q_end", "qdot_end")
 FORCE_FIELDS = ("f_min", "f_max")
@@ -72,6 +75,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
                "replan_trigger"),
     "generator": ("P", "Q", "R"),
     "models": ("judge", "generator_model", "ensemble", "trust_model", "calibration"),
+    "constraints": ("a_max", "jerk_max", "fdot_max", "bounds", "joint_limit_scale"),
 }
 #: how a model named without its suffix may lie on disk (a judge's .pt and .json, a folder, a file)
 MODEL_SUFFIXES = ("", ".json", ".pt")
@@ -104,7 +108,8 @@ FIELD_HELP: dict[str, str] = {
     "R": "generator: weight of the terminal error (eq. 4)",
     "acc_weight": "direct solve: weight of squared acceleration, per (m/s^2)^2 s",
     "force_rate_weight": "direct solve: weight of squared force rate, per (N/s)^2 s",
-    "objective": "direct solve: target (least effort and change to the warm start, p >= p_target) or log_p (eq. 3)",
+    "objective": "direct solve: target (least effort and change to the warm start, p >= p_target), log_p (eq. 3) "
+                 "or min_time (the earliest rest at the terminal state with p >= p_target)",
     "p_target": "direct solve, objective target: the judge's probability the plan must reach",
     "p_min": "direct solve: hard lower bound on the judge's probability",
     "max_iter": "direct solve: Ipopt iterations",
@@ -120,6 +125,11 @@ FIELD_HELP: dict[str, str] = {
     "ensemble": "ensemble folder for pessimistic planning",
     "trust_model": "trust-region model (path stem)",
     "calibration": "calibration file (JSON) for the predicted success",
+    "a_max": "direct solve: largest |acceleration| in m/s^2 (per axis, or one for all)",
+    "jerk_max": "direct solve: largest |jerk| in m/s^3, the change of acceleration between steps",
+    "fdot_max": "direct solve: largest |force rate| in N/s",
+    "bounds": "direct solve: a channel's bounds over a window, NAME:LO:HI@T0:T1 (e.g. f:0:12@0:0.4)",
+    "joint_limit_scale": "direct solve: hold the arm's joint velocity and torque limits times this (1: the URDF's)",
 }
 
 
@@ -203,7 +213,8 @@ class ModelRefs:
 
 
 #: the problem's parts (attribute -> class); every field of a part is also read from the problem by name
-PARTS: dict[str, type] = {"motion": Motion, "solver": SolverOptions, "generator": GeneratorWeights, "models": ModelRefs}
+PARTS: dict[str, type] = {"motion": Motion, "solver": SolverOptions, "generator": GeneratorWeights, "models": ModelRefs,
+                          "constraints": Constraints}
 #: field name -> the part holding it
 PART_OF: dict[str, str] = {f.name: part for part, cls in PARTS.items() for f in dataclasses.fields(cls)}
 #: every field by name, in the order of the flat records (Problem.to_dict) written before the split
@@ -211,7 +222,8 @@ FIELDS: tuple[str, ...] = ("name", "description", "task", "steps", "dt", "q0", "
                            "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "environment", "world", "P", "Q", "R",
                            "acc_weight", "force_rate_weight", "objective", "p_target", "p_min", "max_iter", "tol",
                            "replan_period", "replan_trigger", "judge", "ensemble", "pessimism", "trust_region",
-                           "trust_model", "calibration", "generator_model", "frame", "source")
+                           "trust_model", "calibration", "generator_model", "a_max", "jerk_max", "fdot_max", "bounds",
+                           "joint_limit_scale", "frame", "source")
 #: each field's type, for parsing overrides from text
 FIELD_TYPES: dict[str, Any] = {f.name: f.type for cls in PARTS.values() for f in dataclasses.fields(cls)}
 
@@ -232,14 +244,16 @@ class Problem:
     solver: SolverOptions
     generator: GeneratorWeights
     models: ModelRefs
+    constraints: Constraints
     frame: dict[str, Any] | None
     source: str  # the file it came from (for messages and provenance)
 
     def __init__(self, name: str = "unnamed", description: str = "", motion: Motion | None = None,
                  solver: SolverOptions | None = None, generator: GeneratorWeights | None = None,
-                 models: ModelRefs | None = None, frame: dict[str, Any] | None = None, source: str = "",
-                 **fields: Any) -> None:
-        given = {"motion": motion, "solver": solver, "generator": generator, "models": models}
+                 models: ModelRefs | None = None, constraints: Constraints | None = None,
+                 frame: dict[str, Any] | None = None, source: str = "", **fields: Any) -> None:
+        given = {"motion": motion, "solver": solver, "generator": generator, "models": models,
+                 "constraints": constraints}
         unknown = [k for k in fields if k not in PART_OF]
         if unknown:
             raise TypeError(f"unknown problem field(s) {unknown}")
@@ -252,6 +266,8 @@ class Problem:
         self.__post_init__()
 
     def __post_init__(self) -> None:
+        if self.objective == "min-time":  # as the command line spells it
+            object.__setattr__(self, "solver", dataclasses.replace(self.solver, objective="min_time"))
         self.validate()
         if not self.judge:
             object.__setattr__(self, "models", dataclasses.replace(self.models, judge=get_task(self.task).default_judge))
@@ -318,6 +334,14 @@ class Problem:
         if not isinstance(self.generator_model, str):
             raise ProblemError(f"generator_model = {self.generator_model!r}{where} must be a model path such as "
                                "\"models/generator_paper_sim\" (or \"\" to let its metadata find one)")
+        if self.objective == "min_time" and np.any(np.isnan(self.terminal_positions(
+                {k: 0.0 for k in self.environment}))):
+            raise ProblemError(f"objective = min_time{where} needs a terminal position on every axis (q_end is "
+                               f"{self.q_end!r}): the time is when the motion rests there; set q_end")
+        try:
+            validate_constraints(self.constraints, task.channels, self.steps, self.dt)
+        except ConstraintError as exc:
+            raise ProblemError(f"{exc}{where}") from None
         if not self.environment:
             raise ProblemError(f"the environment{where} names no variables")
         unknown = [k for k in self.environment if k not in task.env_names]
@@ -446,8 +470,9 @@ class Problem:
         lo, hi = q0 + ends + inner * qd_min, q0 + ends + inner * qd_max
         return max(lo, q_min), min(hi, q_max)
 
-    def check_feasible(self, env: dict[str, float]) -> None:
-        """Raise InfeasibleProblemError naming the constraints in conflict (no solver needed)."""
+    def check_feasible(self, env: dict[str, float], rest_from: int | None = None) -> None:
+        """Raise InfeasibleProblemError naming the constraints in conflict (no solver needed;
+        `rest_from`: also at rest at the terminal state from that sample on)."""
         names = [c.name for c in get_task(self.task).channels_of("position")]
         ends = self.terminal_positions(env)
         for i, q_end in enumerate(ends):
@@ -472,6 +497,12 @@ class Problem:
                     f"with velocity limits [{qd_min}, {qd_max}] m/s, {self.steps} steps of "
                     f"{self.dt} s reach only [{lo:.4g}, {hi:.4g}] m; raise {side}, lengthen the horizon, "
                     f"or move q_end", ["terminal.q_end", f"limits.{side}", "horizon.steps"])
+        if self.constraints.is_set() or rest_from is not None:
+            pair = conflict(self, env, rest_from)
+            if pair is not None:
+                which = " and ".join(pair) if len(pair) > 1 else f"{pair[0]} and the start state"
+                raise InfeasibleProblemError(f"infeasible: {which} cannot {'all' if len(pair) > 2 else 'both'} hold "
+                                             "(on the motion model from the start state); relax one", pair)
 
     # -- variants ----------------------------------------------------------------------
     def with_overrides(self, **values: Any) -> "Problem":
@@ -519,6 +550,10 @@ class Problem:
             del d["generator_model"]
         if not self.world:  # records of problems without one read as before
             del d["world"]
+        kept = describe(self.constraints)
+        for k in SECTIONS["constraints"]:  # records of problems without constraints read as before
+            if k not in kept:
+                del d[k]
         d["environment"] = {k: (list(v) if isinstance(v, tuple) else v) for k, v in self.environment.items()}
         return d
 

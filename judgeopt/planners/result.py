@@ -12,6 +12,7 @@ from typing import Any, Mapping, Sequence
 
 import numpy as np
 
+from judgeopt.planners.constraints import residuals as path_residuals
 from judgeopt.planners.dynamics import dynamics_residual
 from judgeopt.planners.problem import InfeasibleProblemError, Problem
 from judgeopt.planners.summary import SummaryTable
@@ -35,7 +36,7 @@ LEGEND = ("judge: the judge's own probability that the plan succeeds; success p:
 
 def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) -> dict[str, float]:
     """Worst violation of each constraint over all axes (>= 0; 0 when satisfied), in the
-    constraint's units."""
+    constraint's units: the boxes, the terminal state, the model, and [constraints]'s."""
     def over(values: np.ndarray, bound: np.ndarray) -> float:
         return float(max(0.0, np.max(values - bound)))
 
@@ -53,6 +54,7 @@ def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) ->
         "qdot_end": float(np.max(np.abs(v[-1] - problem.vec("qdot_end")))),
         "start": max(float(np.max(np.abs(q[0] - problem.vec("q0")))), float(np.max(np.abs(v[0] - problem.vec("qdot0"))))),
         "dynamics": max(dynamics_residual(q[:, i], v[:, i], plan.dt) for i in range(q.shape[1])),
+        **path_residuals(problem.constraints, plan),
     }
 
 

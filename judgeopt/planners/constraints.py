@@ -1,0 +1,327 @@
+"""Constraints beyond the paper's boxes: acceleration, jerk and force-rate limits, and bounds on any
+channel over a window of time. Each is linear in the plan, so the direct solve holds it exactly
+(a variable bound or a linear row) and an infeasible set is found before any solve, by a linear
+program per axis that then names the conflicting pair (`conflict`).
+
+Definitions, on the shared point-mass model (dynamics.py): the acceleration is the piecewise-
+constant a_k = (q̇_k - q̇_{k-1}) / dt, k = 1..N; the jerk is its change between steps, (a_{k+1} - a_k) / dt,
+k = 1..N-1 (the state before the start and after the end is not the plan's to shape); the force
+rate is (f_{k+1} - f_k) / dt, k = 0..N-1. A window bound NAME:LO:HI@T0:T1 holds channel NAME within
+[LO, HI] at every sample t_k = k dt with T0 <= t_k <= T1 (sample 0 of a position or velocity is the
+given start). Residuals are in the constraint's own units, >= 0, 0 where held.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Sequence
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from judgeopt.planners.problem import Problem
+    from judgeopt.trajectory import Channel, Plan
+
+#: a sample lies in a window when within this of its edges (s): 0.4 s is sample 8 at dt = 0.05
+TIME_TOL = 1e-9
+#: the written form of a window bound
+BOUND_FORMAT = "NAME:LO:HI@T0:T1"
+_NUMBER = r"[-+]?(?:inf|(?:\d+\.?\d*|\.\d+)(?:e[-+]?\d+)?)"
+_BOUND = re.compile(rf"^\s*(?P<name>[A-Za-z_]\w*)\s*:\s*(?P<lo>{_NUMBER})\s*:\s*(?P<hi>{_NUMBER})\s*"
+                    rf"(?:@\s*(?P<t0>{_NUMBER})\s*:\s*(?P<t1>{_NUMBER})\s*)?$", re.IGNORECASE)
+#: the rate limits: field -> (what it limits, unit per the channel's unit)
+RATE_LIMITS = {"a_max": "acceleration", "jerk_max": "jerk", "fdot_max": "force rate"}
+
+
+class ConstraintError(ValueError):
+    """A constraint written wrongly (problem.py turns it into a ProblemError naming the file)."""
+
+
+@dataclass(frozen=True)
+class Bound:
+    """Channel `name` within [lo, hi] over t0 <= t <= t1 (t1 None: to the end of the horizon)."""
+
+    name: str
+    lo: float
+    hi: float
+    t0: float = 0.0
+    t1: float | None = None
+
+    @classmethod
+    def parse(cls, text: str) -> "Bound":
+        """From NAME:LO:HI@T0:T1 (the window may be left out: the whole motion; inf for no bound)."""
+        m = _BOUND.match(text) if isinstance(text, str) else None
+        if m is None:
+            raise ConstraintError(f"bound {text!r} must read {BOUND_FORMAT}, e.g. f:0:12@0:0.4 or y:0.05:inf@0.6:1.5 "
+                                  "(inf: no bound on that side; the window may be left out)")
+        lo, hi = float(m["lo"]), float(m["hi"])
+        t0, t1 = (float(m["t0"]), float(m["t1"])) if m["t0"] is not None else (0.0, None)
+        return cls(m["name"], lo, hi, t0, t1)
+
+    @property
+    def text(self) -> str:
+        window = "" if self.t0 == 0.0 and self.t1 is None else f"@{self.t0:g}:{self.t1:g}"
+        return f"{self.name}:{self.lo:g}:{self.hi:g}{window}"
+
+    def samples(self, steps: int, dt: float) -> np.ndarray:
+        """Indices k of the samples t_k = k dt inside the window."""
+        t = np.arange(steps + 1) * dt
+        end = t[-1] if self.t1 is None else self.t1
+        return np.flatnonzero((t >= self.t0 - TIME_TOL) & (t <= end + TIME_TOL))
+
+    def check(self, channels: Sequence["Channel"], steps: int, dt: float) -> None:
+        """Raise ConstraintError where the bound cannot mean anything: LO > HI, an unknown
+        channel, a window outside the horizon or with no sample in it."""
+        names = [c.name for c in channels]
+        if self.name not in names:
+            raise ConstraintError(f"bound {self.text}: no channel {self.name!r}; the task's channels are "
+                                  f"{', '.join(names)}")
+        if math.isnan(self.lo) or math.isnan(self.hi) or self.lo > self.hi:
+            raise ConstraintError(f"bound {self.text}: LO = {self.lo:g} is above HI = {self.hi:g}; swap them")
+        if self.lo == math.inf or self.hi == -math.inf:
+            raise ConstraintError(f"bound {self.text}: LO must be below inf and HI above -inf")
+        horizon = steps * dt
+        end = horizon if self.t1 is None else self.t1
+        if not (self.t0 >= -TIME_TOL and end <= horizon + TIME_TOL and math.isfinite(self.t0) and math.isfinite(end)):
+            raise ConstraintError(f"bound {self.text}: window [{self.t0:g}, {end:g}] s lies outside the horizon "
+                                  f"[0, {horizon:g}] s; give T0:T1 within it")
+        if self.t0 > end:
+            raise ConstraintError(f"bound {self.text}: window starts at {self.t0:g} s after it ends at {end:g} s; "
+                                  "give T0 <= T1")
+        if not len(self.samples(steps, dt)):
+            raise ConstraintError(f"bound {self.text}: no sample (every {dt:g} s) lies in the window; widen it")
+
+
+@dataclass(frozen=True)
+class Constraints:
+    """A problem's [constraints] (acados' path constraints): rate limits per position axis
+    (a_max in m/s², jerk_max in m/s³) or force channel (fdot_max in N/s), one value for all or
+    one each; window bounds as BOUND_FORMAT strings; the arm's joint limits scaled by
+    joint_limit_scale (None: not held). None: no limit."""
+
+    a_max: float | list[float] | None = None
+    jerk_max: float | list[float] | None = None
+    fdot_max: float | list[float] | None = None
+    bounds: list[str] = field(default_factory=list)
+    joint_limit_scale: float | None = None
+
+    def parsed_bounds(self) -> list[Bound]:
+        return [Bound.parse(b) for b in self.bounds]
+
+    def is_set(self) -> bool:
+        """Whether anything beyond the paper's boxes is asked for."""
+        return any(getattr(self, k) is not None for k in (*RATE_LIMITS, "joint_limit_scale")) or bool(self.bounds)
+
+
+def per_channel(value: float | list[float] | None, count: int, name: str) -> np.ndarray:
+    """A rate limit as one value per axis (or force channel); inf where not set."""
+    if value is None:
+        return np.full(count, np.inf)
+    values = list(value) if isinstance(value, (list, tuple)) else [value] * count
+    if len(values) != count:
+        raise ConstraintError(f"{name} = {value} has {len(values)} values; give one, or one for each of {count}")
+    for v in values:
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or math.isnan(v) or not v > 0:
+            raise ConstraintError(f"{name} = {value!r} must be a positive number (or inf, or left out)")
+    return np.array(values, dtype=float)
+
+
+def validate(c: Constraints, channels: Sequence["Channel"], steps: int, dt: float) -> None:
+    """Raise ConstraintError for a [constraints] that is malformed; infeasible sets are
+    `conflict`'s to find (they depend on the environment's terminal position)."""
+    n_axes = sum(ch.kind == "position" for ch in channels)
+    n_forces = sum(ch.kind == "force" for ch in channels)
+    for name in RATE_LIMITS:
+        per_channel(getattr(c, name), n_forces if name == "fdot_max" else n_axes, name)
+    if not isinstance(c.bounds, (list, tuple)):
+        raise ConstraintError(f"bounds = {c.bounds!r} must be a list of {BOUND_FORMAT} strings")
+    for b in c.parsed_bounds():
+        b.check(channels, steps, dt)
+    s = c.joint_limit_scale
+    if s is not None and (isinstance(s, bool) or not isinstance(s, (int, float)) or not (s > 0 and math.isfinite(s))):
+        raise ConstraintError(f"joint_limit_scale = {s!r} must be a positive number (1: the arm's own limits; "
+                              "0.8: 80 % of them)")
+
+
+# -- residuals ---------------------------------------------------------------------------
+def rates(plan: "Plan") -> dict[str, np.ndarray]:
+    """The plan's accelerations (N, axes), jerks (N - 1, axes) and force rates (N, forces)."""
+    v, f = (plan.values[:, plan.columns(kind)] for kind in ("velocity", "force"))
+    a = np.diff(v, axis=0) / plan.dt
+    return {"a_max": a, "jerk_max": np.diff(a, axis=0) / plan.dt, "fdot_max": np.diff(f, axis=0) / plan.dt}
+
+
+def residuals(c: Constraints, plan: "Plan") -> dict[str, float]:
+    """Worst violation of each constraint that is set, in its own units (>= 0)."""
+    out: dict[str, float] = {}
+    for name, values in rates(plan).items():
+        limit = getattr(c, name)
+        if limit is not None:
+            lim = per_channel(limit, values.shape[1], name)
+            out[name] = float(max(0.0, np.max(np.abs(values) - lim, initial=0.0)))
+    names = [ch.name for ch in plan.channels]
+    for b in c.parsed_bounds():
+        x = plan.values[b.samples(plan.horizon, plan.dt), names.index(b.name)]
+        out[f"bound {b.text}"] = float(max(0.0, np.max(x - b.hi), np.max(b.lo - x)))
+    return out
+
+
+# -- feasibility: one linear program per position axis and per force channel ----------------
+@dataclass
+class _Group:
+    """Rows of one named constraint: A x <= b, bounds lo <= x <= hi."""
+
+    name: str
+    A: list[np.ndarray] = field(default_factory=list)
+    b: list[float] = field(default_factory=list)
+    lo: dict[int, float] = field(default_factory=dict)
+    hi: dict[int, float] = field(default_factory=dict)
+
+    def bound(self, j: int, lo: float, hi: float) -> None:
+        self.lo[j], self.hi[j] = max(self.lo.get(j, -np.inf), lo), min(self.hi.get(j, np.inf), hi)
+
+    def row(self, coeffs: dict[int, float], n: int, hi: float, lo: float = -np.inf) -> None:
+        r = np.zeros(n)
+        for j, x in coeffs.items():
+            r[j] = x
+        if hi < np.inf:
+            self.A.append(r)
+            self.b.append(hi)
+        if lo > -np.inf:
+            self.A.append(-r)
+            self.b.append(-lo)
+
+
+def _feasible(n: int, eq: tuple[np.ndarray, np.ndarray], groups: list[_Group]) -> bool:
+    from scipy.optimize import linprog
+
+    lo, hi = np.full(n, -np.inf), np.full(n, np.inf)
+    A, b = [], []
+    for g in groups:
+        for j, x in g.lo.items():
+            lo[j] = max(lo[j], x)
+        for j, x in g.hi.items():
+            hi[j] = min(hi[j], x)
+        A += g.A
+        b += g.b
+    if np.any(lo > hi + 1e-12):
+        return False
+    res = linprog(np.zeros(n), A_ub=np.array(A) if A else None, b_ub=np.array(b) if b else None, A_eq=eq[0],
+                  b_eq=eq[1], bounds=list(zip(lo, hi)), method="highs")
+    return res.status == 0
+
+
+def _axis_program(problem: "Problem", env: dict[str, float], axis: int, rest_from: int | None
+                  ) -> tuple[int, tuple[np.ndarray, np.ndarray], list[_Group]]:
+    """Variables q_0..q_N, v_0..v_N of one axis; the start and the model as equalities; every
+    other constraint on the axis a named group."""
+    n, dt = problem.steps, problem.dt
+    nv = 2 * (n + 1)
+    Q, V = (lambda k: k), (lambda k: n + 1 + k)
+    rows, rhs = [], []
+    for j, x in ((Q(0), problem.vec("q0")[axis]), (V(0), problem.vec("qdot0")[axis])):
+        r = np.zeros(nv)
+        r[j] = 1.0
+        rows.append(r)
+        rhs.append(float(x))
+    for k in range(1, n + 1):  # q_k - q_{k-1} - dt/2 (v_{k-1} + v_k) = 0
+        r = np.zeros(nv)
+        r[Q(k)], r[Q(k - 1)], r[V(k - 1)], r[V(k)] = 1.0, -1.0, -0.5 * dt, -0.5 * dt
+        rows.append(r)
+        rhs.append(0.0)
+    spec = problem.channel_spec
+    pos = [c for c in spec if c.kind == "position"][axis]
+    vel = next(c for c in spec if c.of == pos.name)
+    c = problem.constraints
+    groups = []
+    box_q, box_v = _Group("limits.q_min/q_max"), _Group("limits.qdot_min/qdot_max")
+    for k in range(1, n + 1):
+        box_q.bound(Q(k), problem.vec("q_min")[axis], problem.vec("q_max")[axis])
+        box_v.bound(V(k), problem.vec("qdot_min")[axis], problem.vec("qdot_max")[axis])
+    groups += [box_q, box_v]
+    end = problem.terminal_positions(env)[axis]
+    if not np.isnan(end):
+        g = _Group("terminal.q_end")
+        g.bound(Q(n), end, end)
+        groups.append(g)
+    g = _Group("terminal.qdot_end")
+    g.bound(V(n), problem.vec("qdot_end")[axis], problem.vec("qdot_end")[axis])
+    groups.append(g)
+    a_max = per_channel(c.a_max, problem.n_axes, "a_max")[axis]
+    if np.isfinite(a_max):
+        g = _Group(f"constraints.a_max = {a_max:g}")
+        for k in range(1, n + 1):
+            g.row({V(k): 1 / dt, V(k - 1): -1 / dt}, nv, a_max, -a_max)
+        groups.append(g)
+    j_max = per_channel(c.jerk_max, problem.n_axes, "jerk_max")[axis]
+    if np.isfinite(j_max):
+        g = _Group(f"constraints.jerk_max = {j_max:g}")
+        for k in range(1, n):
+            g.row({V(k + 1): 1 / dt ** 2, V(k): -2 / dt ** 2, V(k - 1): 1 / dt ** 2}, nv, j_max, -j_max)
+        groups.append(g)
+    for b in c.parsed_bounds():
+        if b.name in (pos.name, vel.name):
+            g = _Group(f"bound {b.text}")
+            for k in b.samples(n, dt):
+                g.bound(Q(k) if b.name == pos.name else V(k), b.lo, b.hi)
+            groups.append(g)
+    if rest_from is not None:
+        g = _Group(f"rest from t = {rest_from * dt:g} s")
+        qd_end = problem.vec("qdot_end")[axis]
+        for k in range(rest_from, n + 1):
+            g.bound(V(k), qd_end, qd_end)
+            if not np.isnan(end):
+                g.bound(Q(k), end, end)
+        groups.append(g)
+    return nv, (np.array(rows), np.array(rhs)), groups
+
+
+def _force_program(problem: "Problem", channel: int) -> tuple[int, tuple[np.ndarray, np.ndarray], list[_Group]]:
+    n, dt = problem.steps, problem.dt
+    nv = n + 1
+    name = [c for c in problem.channel_spec if c.kind == "force"][channel].name
+    box = _Group("limits.f_min/f_max")
+    for k in range(nv):
+        box.bound(k, problem.vec("f_min")[channel], problem.vec("f_max")[channel])
+    groups = [box]
+    limit = per_channel(problem.constraints.fdot_max, problem.n_forces, "fdot_max")[channel]
+    if np.isfinite(limit):
+        g = _Group(f"constraints.fdot_max = {limit:g}")
+        for k in range(n):
+            g.row({k + 1: 1 / dt, k: -1 / dt}, nv, limit, -limit)
+        groups.append(g)
+    for b in problem.constraints.parsed_bounds():
+        if b.name == name:
+            g = _Group(f"bound {b.text}")
+            for k in b.samples(n, dt):
+                g.bound(k, b.lo, b.hi)
+            groups.append(g)
+    return nv, (np.zeros((0, nv)), np.zeros(0)), groups
+
+
+def conflict(problem: "Problem", env: dict[str, float], rest_from: int | None = None) -> list[str] | None:
+    """The constraints that no plan can hold together (with the start state and the model): an
+    irreducible set, each of which the others can hold without (a deletion filter over linear
+    programs), usually a pair; None when the linear constraints are feasible (the judge's is not
+    linear, and is the solve's to meet). `rest_from`: the plan must be at its terminal state from
+    sample k on (min-time's candidate)."""
+    programs = [_axis_program(problem, env, i, rest_from) for i in range(problem.n_axes)]
+    programs += [_force_program(problem, i) for i in range(problem.n_forces)]
+    for n, eq, groups in programs:
+        if _feasible(n, eq, groups):
+            continue
+        keep = list(groups)
+        for g in groups:
+            rest = [h for h in keep if h is not g]
+            if not _feasible(n, eq, rest):
+                keep = rest
+        return [g.name for g in keep]
+    return None
+
+
+def describe(c: Constraints) -> dict[str, Any]:
+    """The constraints that are set, by name (for records: nothing when none is)."""
+    return {k: v for k, v in (("a_max", c.a_max), ("jerk_max", c.jerk_max), ("fdot_max", c.fdot_max),
+                              ("bounds", list(c.bounds)), ("joint_limit_scale", c.joint_limit_scale)) if v}
