@@ -182,6 +182,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
     from judgeopt.planners import session
+    from judgeopt.planners.feasible import check as check_constraints
     from judgeopt.planners.loaded import Planners
 
     t0 = time.perf_counter()
@@ -194,7 +195,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if spec is not None and spec.closed_loop and not args.simulate:
         raise CLIError(f"--method {args.method} plans while the plan is executed in simulation; drop --no-simulate")
     try:
-        problem.check_feasible(env)
+        check_constraints(problem, env)
     except ProblemError as exc:
         return _infeasible(args, problem, env, exc)
     methods, fallback = session.methods_for(problem, args.method, args.generator, args.models, args.simulate)

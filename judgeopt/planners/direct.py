@@ -333,7 +333,7 @@ class DirectPlanner(Planner):
 
     def _windows(self, lb: np.ndarray, ub: np.ndarray) -> None:
         """[constraints]' window bounds onto the variable bounds (sample 0 of q and q̇ is the
-        start, not a variable: a window that excludes it is `Problem.check_feasible`'s to report)."""
+        start, not a variable: a window that excludes it is feasible.check's to report)."""
         pr = self.problem
         spec = pr.channel_spec
         pos = [c.name for c in spec if c.kind == "position"]

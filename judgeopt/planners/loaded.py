@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 
@@ -227,7 +227,7 @@ class Planners:
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
-    def with_limits(self, **limits: float) -> "Planners":
+    def with_limits(self, **limits: Any) -> "Planners":
         """The same judge under other position, velocity or force limits: each planner carried
         over by its own with_limits where it can (the direct solve swaps its bounds, no rebuild),
         built again where it cannot. The generator is chosen as `load` chooses it (the one given,

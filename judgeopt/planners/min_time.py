@@ -4,7 +4,7 @@ constraint held.
 
 The plans resting from sample k are a subset of those resting from k + 1 (one at rest from k is
 also at rest from k + 1), so success is monotone in k and the earliest k is found by bisection:
-first the smallest k the linear constraints allow (a linear program per k, `Problem.check_feasible`),
+first the smallest k the linear constraints allow (a linear program per k, feasible.check),
 then direct solves between it and the horizon, each warm-started from the last plan that reached
 the target. The judge still reads the whole horizon: the motion, then the rest.
 """
@@ -12,14 +12,11 @@ the target. The judge still reads the whole horizon: the motion, then the rest.
 from __future__ import annotations
 
 import time
-from typing import TYPE_CHECKING
-
+from judgeopt.planners.base import Planner
+from judgeopt.planners.feasible import check
 from judgeopt.planners.problem import InfeasibleProblemError
 from judgeopt.planners.result import PlanResult
 from judgeopt.trajectory import Plan
-
-if TYPE_CHECKING:
-    from judgeopt.planners.direct import DirectPlanner
 
 #: how close to p_target (in probability) a candidate must come to count as reaching it
 REACHED_TOL = 1e-3
@@ -31,7 +28,7 @@ def reached(result: PlanResult, p_target: float) -> bool:
             and result.predicted_success is not None and result.predicted_success >= p_target - REACHED_TOL)
 
 
-def earliest_linear(direct: "DirectPlanner", env: dict[str, float]) -> int | None:
+def earliest_linear(direct: Planner, env: dict[str, float]) -> int | None:
     """The smallest k from which the linear constraints allow resting (None: not even at the end)."""
     pr = direct.problem
     ok = lambda k: _linear_ok(direct, env, k)  # noqa: E731
@@ -44,15 +41,15 @@ def earliest_linear(direct: "DirectPlanner", env: dict[str, float]) -> int | Non
     return hi
 
 
-def _linear_ok(direct: "DirectPlanner", env: dict[str, float], k: int) -> bool:
+def _linear_ok(direct: Planner, env: dict[str, float], k: int) -> bool:
     try:
-        direct.problem.check_feasible(env, rest_from=k)
+        check(direct.problem, env, rest_from=k)
     except InfeasibleProblemError:
         return False
     return True
 
 
-def earliest(direct: "DirectPlanner", env: dict[str, float], guess: Plan | None = None,
+def earliest(direct: Planner, env: dict[str, float], guess: Plan | None = None,
              env_set: list[dict[str, float]] | None = None) -> PlanResult:
     """The plan resting earliest with the judge at p_target; info: the time found (`min_time_s`),
     the horizon, the candidates tried. Where even the full horizon does not reach the target, that

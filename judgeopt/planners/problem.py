@@ -30,7 +30,7 @@ import numpy as np
 
 from judgeopt.errors import BadInput, Infeasible, UsageError
 from judgeopt.files import PACKAGE, resolve
-from judgeopt.planners.constraints import ConstraintError, Constraints, conflict, describe
+from judgeopt.planners.constraints import ConstraintError, Constraints, describe
 from judgeopt.planners.constraints import validate as validate_constraints
 from judgeopt.formats.frame import FrameError, TaskFrame, task_frame
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
@@ -470,9 +470,9 @@ class Problem:
         lo, hi = q0 + ends + inner * qd_min, q0 + ends + inner * qd_max
         return max(lo, q_min), min(hi, q_max)
 
-    def check_feasible(self, env: dict[str, float], rest_from: int | None = None) -> None:
-        """Raise InfeasibleProblemError naming the constraints in conflict (no solver needed;
-        `rest_from`: also at rest at the terminal state from that sample on)."""
+    def check_feasible(self, env: dict[str, float]) -> None:
+        """Raise InfeasibleProblemError naming the limits in conflict (no solver needed): the boxes
+        and the terminal state; judgeopt.planners.feasible.check adds [constraints]."""
         names = [c.name for c in get_task(self.task).channels_of("position")]
         ends = self.terminal_positions(env)
         for i, q_end in enumerate(ends):
@@ -497,12 +497,6 @@ class Problem:
                     f"with velocity limits [{qd_min}, {qd_max}] m/s, {self.steps} steps of "
                     f"{self.dt} s reach only [{lo:.4g}, {hi:.4g}] m; raise {side}, lengthen the horizon, "
                     f"or move q_end", ["terminal.q_end", f"limits.{side}", "horizon.steps"])
-        if self.constraints.is_set() or rest_from is not None:
-            pair = conflict(self, env, rest_from)
-            if pair is not None:
-                which = " and ".join(pair) if len(pair) > 1 else f"{pair[0]} and the start state"
-                raise InfeasibleProblemError(f"infeasible: {which} cannot {'all' if len(pair) > 2 else 'both'} hold "
-                                             "(on the motion model from the start state); relax one", pair)
 
     # -- variants ----------------------------------------------------------------------
     def with_overrides(self, **values: Any) -> "Problem":

@@ -14,6 +14,7 @@ import numpy as np
 
 from judgeopt.planners.constraints import residuals as path_residuals
 from judgeopt.planners.dynamics import dynamics_residual
+from judgeopt.planners.feasible import check
 from judgeopt.planners.problem import InfeasibleProblemError, Problem
 from judgeopt.planners.summary import SummaryTable
 from judgeopt.trajectory import Plan
@@ -55,7 +56,18 @@ def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) ->
         "start": max(float(np.max(np.abs(q[0] - problem.vec("q0")))), float(np.max(np.abs(v[0] - problem.vec("qdot0"))))),
         "dynamics": max(dynamics_residual(q[:, i], v[:, i], plan.dt) for i in range(q.shape[1])),
         **path_residuals(problem.constraints, plan),
+        **joint_residuals(problem, plan),
     }
+
+
+def joint_residuals(problem: Problem, plan: Plan) -> dict[str, float]:
+    """The arm's joint velocity (rad/s) and torque (N m) beyond their limits times
+    joint_limit_scale, at each sample's exact configuration; none unless the scale is set."""
+    if problem.joint_limit_scale is None:
+        return {}
+    from judgeopt.planners.joint_limits import joint_map
+
+    return joint_map(problem).residuals(plan, problem.joint_limit_scale)
 
 
 @dataclass
@@ -217,7 +229,7 @@ def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> P
     """The answer every planner gives when no trajectory can meet the limits (None if one can):
     the conflict is reported before any solver or search runs."""
     try:
-        problem.check_feasible(env)
+        check(problem, env)
     except InfeasibleProblemError as exc:
         return PlanResult(method, env, None, None, "infeasible", 0.0, message=str(exc), info={"conflict": exc.conflict})
     return None

@@ -1,6 +1,7 @@
 """What would make an unlikely plan likely: the smallest relaxation of one limit, found by re-planning.
 
-For each limit a user could relax (f_max up, q̇_max up, f_min down), the planners re-plan the
+For each limit a user could relax (f_max up, q̇_max up, f_min down; of [constraints], a rate limit
+up, the joint-limit scale up to the arm's own limits, a window bound dropped), the planners re-plan the
 same environment under the relaxed limit; the smallest relaxation under which a plan is
 "likely" is reported. Relaxing a limit only enlarges the set of allowed plans, so the best
 achievable probability grows with the relaxation: the search tries the widest relaxation the
@@ -13,9 +14,11 @@ Nothing here is guessed: each figure is a planner's result under the suggested l
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
-from judgeopt.planners.problem import ProblemError
+from judgeopt.planners.constraints import RATE_LIMITS
+from judgeopt.planners.problem import Problem, ProblemError
 from judgeopt.planners.result import LIKELY, PlanResult, recommended
 from judgeopt.planners.base import spec_of
 from judgeopt.planners.loaded import Planners
@@ -42,6 +45,25 @@ def relaxations(task: Task) -> tuple[Relaxation, ...]:
             Relaxation("f_min", -1, 1.0, f_lo, f_unit))
 
 
+#: a rate limit is relaxed up to this many times its value, to this fraction of it
+RATE_REACH, RATE_RESOLUTION = 4.0, 0.05
+
+
+def constraint_relaxations(problem: Problem) -> tuple[Relaxation, ...]:
+    """The problem's [constraints] a user could relax: each rate limit set (one value for every
+    axis) up to RATE_REACH times, the joint-limit scale up to 1 (the arm's own limits: beyond them
+    is not the arm's to do). Window bounds are dropped instead (`suggest`)."""
+    task = get_task(problem.task)
+    pos, force = task.channels_of("position")[0].unit, task.channels_of("force")[0].unit
+    units = {"a_max": f"{pos}/s^2", "jerk_max": f"{pos}/s^3", "fdot_max": f"{force}/s"}
+    out = [Relaxation(name, +1, RATE_RESOLUTION * v, RATE_REACH * v, units[name])
+           for name in RATE_LIMITS if isinstance(v := getattr(problem, name), (int, float)) and math.isfinite(v)]
+    scale = problem.joint_limit_scale
+    if scale is not None and scale < 1.0:
+        out.append(Relaxation("joint_limit_scale", +1, 0.02, 1.0, "x the arm's limits"))
+    return tuple(out)
+
+
 @dataclass
 class Suggestion:
     limit: str
@@ -51,27 +73,35 @@ class Suggestion:
     result: PlanResult  # the best method's plan under the relaxed limit
     p_at_bound: float  # screened at the widest relaxation the demonstrations support
     bound: float
+    #: what binds on the plan under the current limit (the joint-limit scale: the joint and quantity)
+    binds: str = ""
 
     @property
     def relative_change(self) -> float:
+        if math.isnan(self.value):  # a window bound dropped: as large a change as there is
+            return math.inf
         return abs(self.value - self.current) / max(abs(self.current), 1e-9)
 
     def text(self) -> str:
-        op = ">=" if self.value > self.current else "<="
         r = self.result
-        return (f"likely with {self.limit} {op} {self.value:.3g} {self.unit} (now {self.current:g}): "
-                f"p = {r.success_probability:.2f} ({r.method}, {r.probability_source}); "
+        p = f"p = {r.success_probability:.2f} ({r.method}, {r.probability_source})"
+        if math.isnan(self.value):
+            return f"likely without {self.limit}: {p}"
+        op = ">=" if self.value > self.current else "<="
+        binds = f"; {self.binds}" if self.binds else ""
+        return (f"likely with {self.limit} {op} {self.value:.3g} {self.unit} (now {self.current:g}{binds}): {p}; "
                 f"p = {self.p_at_bound:.2f} at {self.limit} = {self.bound:g} {self.unit}")
 
     def to_json(self) -> dict:
         r = self.result
-        return {"limit": self.limit, "value": self.value, "current": self.current, "unit": self.unit,
+        return {"limit": self.limit, "value": None if math.isnan(self.value) else self.value,
+                "current": self.current, "unit": self.unit, "binds": self.binds or None,
                 "success_probability": r.success_probability, "probability_source": r.probability_source,
                 "method": r.method, "predicted_success": r.predicted_success, "bound": self.bound,
                 "success_probability_at_bound": self.p_at_bound}
 
 
-def _screen(planners: Planners, name: str, value: float, env: dict[str, float], guess) -> float:
+def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) -> float:
     """Best success probability of the fastest planner that covers the relaxed limit (the first
     that plans before execution: the registry lists the built-ins fastest first)."""
     relaxed = planners.with_limits(**{name: value})
@@ -88,9 +118,10 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
     (it satisfies any relaxed limits too)."""
     found: list[Suggestion] = []
     p = planners.problem
-    limits = limits if limits is not None else relaxations(get_task(p.task))
+    limits = limits if limits is not None else relaxations(get_task(p.task)) + constraint_relaxations(p)
     start = recommended(results)
     guess = start.plan if start is not None else None
+    found += _dropped_bounds(planners, env, guess)
     for rx in limits:
         current = getattr(p, rx.name)
         if (rx.bound - current) * rx.direction <= rx.resolution:
@@ -113,5 +144,34 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
             continue
         top = recommended(relaxed)
         if top is not None and top.success_probability >= LIKELY:
-            found.append(Suggestion(rx.name, float(hi), float(current), rx.unit, top, p_bound, rx.bound))
+            found.append(Suggestion(rx.name, float(hi), float(current), rx.unit, top, p_bound, rx.bound,
+                                    _binds(p, rx.name, guess)))
     return sorted(found, key=lambda s: s.relative_change)
+
+
+def _binds(problem: Problem, name: str, plan) -> str:
+    """For the joint-limit scale: which joint's velocity or torque is nearest its scaled limit on
+    the plan under the current limits (the one the relaxation is for)."""
+    if name != "joint_limit_scale" or plan is None:
+        return ""
+    from judgeopt.planners.joint_limits import joint_map
+
+    joint, quantity, ratio = joint_map(problem).binding(plan, problem.joint_limit_scale)
+    return f"{joint}'s {quantity} binds, at {ratio:.0%} of its scaled limit"
+
+
+def _dropped_bounds(planners: Planners, env: dict[str, float], guess) -> list[Suggestion]:
+    """Each window bound whose removal alone makes a plan likely (a window has no one number to
+    relax: the user moves it or drops it)."""
+    p, found = planners.problem, []
+    for i, text in enumerate(p.bounds):
+        rest = [b for j, b in enumerate(p.bounds) if j != i]
+        try:
+            if _screen(planners, "bounds", rest, env, guess) < LIKELY:
+                continue
+            top = recommended(planners.with_limits(bounds=rest).solve(env, guess=guess))
+        except ProblemError:
+            continue
+        if top is not None and top.success_probability >= LIKELY:
+            found.append(Suggestion(f"bound {text}", math.nan, math.nan, "", top, top.success_probability, math.nan))
+    return found

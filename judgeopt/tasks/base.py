@@ -13,7 +13,7 @@ import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping, Sequence
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -106,6 +106,26 @@ class Outcome:
     details: dict[str, Any] = field(default_factory=dict)
     # how close a failure came, for searches scored by the simulator: above 1 only on success
     progress: float = 0.0
+
+
+@dataclass(frozen=True)
+class ArmModel:
+    """A task's arm as the planners' joint-limit constraints see it (judgeopt.planners.joint_limits):
+    the tool moves along the plan's position axes at a pose the task fixes, and presses along one
+    direction. Quasi-static: the joint velocities follow from the Jacobian, the torques from gravity
+    and the pressing force (the arm's inertia and the contact's moment left out)."""
+
+    model: Any  # pinocchio.Model of the arm (and its tool), the one the simulator's controller uses
+    tool_frame: int  # the frame the plan's positions move (Pinocchio frame id)
+    joints: tuple[str, ...]  # the actuated joints, in the model's velocity order
+    #: positions (one per axis) -> the tool frame's pose (pinocchio.SE3) in the model's world
+    pose: Callable[[np.ndarray], Any]
+    #: positions, a starting configuration (None: the task's home posture) -> joint angles at `pose`
+    ik: Callable[[np.ndarray, np.ndarray | None], np.ndarray]
+    #: (axes, 3): each position axis's direction in the world (per unit position)
+    axes: np.ndarray
+    #: (3,): the force the tool exerts on the environment per unit of the plan's force channel (world)
+    force_axis: np.ndarray
 
 
 def with_setting(settings: Any, key: str, text: str) -> Any:
@@ -318,6 +338,11 @@ class Task(ABC):
     def simulator(self, settings: Any = None, render: bool = False) -> TaskSimulator:
         """A new simulator of the task's scene (default settings when None); `render`: one a
         camera can draw (`render`), which takes longer to build."""
+
+    def arm_model(self, problem: Any = None) -> ArmModel | None:
+        """The arm that executes `problem`'s plans, for the direct solve's joint-limit constraints
+        (judgeopt.planners.joint_limits); None (the default): the task has none to offer."""
+        return None
 
     def explain(self, details: Mapping[str, Any]) -> str:
         """One line on a simulated outcome's details (what `solve` prints after a replay)."""

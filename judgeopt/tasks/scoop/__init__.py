@@ -110,6 +110,12 @@ class ScoopTask(Task):
         cfg = settings.commands if settings is not None else RandomCommandConfig()
         return random_command(rng, float(env["y_obj"]), cfg).as_array()
 
+    def arm_model(self, problem: Any = None) -> Any:
+        """The UR5 + spatula along the scooping line (tasks/scoop/arm_path.py; loads Pinocchio)."""
+        from judgeopt.tasks.scoop.arm_path import scoop_arm
+
+        return scoop_arm()
+
     def simulator(self, settings: ScoopSettings | None = None, render: bool = False) -> TaskSimulator:
         from judgeopt.tasks.scoop.world import WorldSimulator
 

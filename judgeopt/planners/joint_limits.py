@@ -1,0 +1,186 @@
+"""The arm's own limits along a plan (issue 36): joint velocities and joint torques at each sample,
+held within `joint_limit_scale` times the URDF's limits by the direct solve.
+
+Quasi-static, on the task's ArmModel (Task.arm_model): at a sample's position the tool's pose is
+fixed by the task, so the configuration q(y) comes from IK alone, and
+
+    joint velocity = J(q)^-1 [axis * ydot; 0]       (the tool moves along the axis, does not turn)
+    joint torque   = g(q) + J(q)^T [force_axis * f; 0]
+
+J the tool frame's Jacobian (LOCAL_WORLD_ALIGNED), g the gravity torques (tool included), and
+force_axis * f the force the tool exerts on the environment: the simulator's controller commands
+exactly this at rest (its feed-forward xdd -= Lambda^-1 F_cmd gives tau = g - J^T e_z f_z; tested
+against a pressing rollout). The arm's inertia and the contact's moment about the TCP are left out.
+
+The direct solve needs these symbolically: for a one-axis task they are tabulated over a fine grid
+of positions covering [q_min, q_max] and interpolated by CasADi B-splines (`JointMap.rows`); the
+residual check recomputes them exactly, with IK at each sample (`JointMap.residuals`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from judgeopt.planners.problem import ProblemError
+from judgeopt.tasks import get_task
+from judgeopt.tasks.base import ArmModel
+from judgeopt.trajectory import Plan
+
+#: grid spacing of the tabulated kinematics (m): the B-spline's error is then far below 1e-6 relative
+GRID_STEP = 0.0025
+#: the grid reaches this far beyond [q_min, q_max] (m), where the arm reaches there
+GRID_MARGIN = 0.02
+
+_CACHE: dict[tuple, "JointMap"] = {}
+
+
+def joint_kinematics(arm: ArmModel, position: float, start: np.ndarray | None = None
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """At the IK configuration of `position`: (q, joint velocity per unit axis velocity, gravity
+    torques, torques per unit pressing force), exactly (Pinocchio)."""
+    import pinocchio as pin
+
+    model = arm.model
+    data = model.createData()
+    q = arm.ik(np.array([position]), start)
+    J = pin.computeFrameJacobian(model, data, q, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)
+    twist = np.concatenate([arm.axes[0], np.zeros(3)])
+    wrench = np.concatenate([arm.force_axis, np.zeros(3)])
+    rate = np.linalg.solve(J, twist)
+    gravity = pin.computeGeneralizedGravity(model, data, q).copy()
+    return q, rate, gravity, J.T @ wrench
+
+
+@dataclass
+class JointMap:
+    """How a one-axis task's plan maps to its arm's joints: limits (URDF) and tabulated kinematics."""
+
+    names: tuple[str, ...]
+    velocity_limit: np.ndarray  # rad/s per joint
+    torque_limit: np.ndarray  # N m per joint
+    grid: np.ndarray  # (G,) positions
+    configs: np.ndarray  # (G, joints): the IK configurations (one continuous branch)
+    rate: np.ndarray  # (G, joints): joint velocity per unit axis velocity
+    gravity: np.ndarray  # (G, joints): gravity torques
+    force: np.ndarray  # (G, joints): torques per unit pressing force
+    arm: ArmModel
+    _table: Any = field(default=None, repr=False)
+
+    @property
+    def n_joints(self) -> int:
+        return len(self.names)
+
+    def table(self) -> Any:
+        """One CasADi B-spline of position -> [rate, gravity, force] (3 x joints outputs)."""
+        if self._table is None:
+            import casadi as cs
+
+            values = np.hstack([self.rate, self.gravity, self.force])  # (G, 3 nj), C order: outputs fastest
+            self._table = cs.interpolant("joint_table", "bspline", [self.grid], values.ravel(order="C"))
+        return self._table
+
+    def rows(self, q: Any, v: Any, f: Any) -> Any:
+        """Constraint rows normalised by the limits, for q, v, f (N + 1, 1) columns: joint velocity
+        / limit for k = 1..N (joints fastest), then joint torque / limit for k = 0..N; hold them in
+        [-scale, scale]."""
+        import casadi as cs
+
+        n, nj = q.shape[0], self.n_joints
+        T = self.table().map(n)(cs.reshape(q, 1, n))  # (3 nj, n)
+        rate, grav, force = T[:nj, :], T[nj:2 * nj, :], T[2 * nj:, :]
+        inv_v = cs.DM(1.0 / self.velocity_limit)
+        inv_t = cs.DM(1.0 / self.torque_limit)
+        vel = rate[:, 1:] * cs.repmat(cs.reshape(v[1:], 1, n - 1), nj, 1) * cs.repmat(inv_v, 1, n - 1)
+        tau = (grav + force * cs.repmat(cs.reshape(f, 1, n), nj, 1)) * cs.repmat(inv_t, 1, n)
+        return cs.vertcat(cs.vec(vel), cs.vec(tau))
+
+    def exact(self, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
+        """Joint velocities (N, joints; samples 1..N) and torques (N + 1, joints), from IK at each
+        sample's position (not the tables)."""
+        pos = plan.values[:, _column(plan, "position")]
+        vel = plan.values[:, _column(plan, "velocity")]
+        force = plan.values[:, _column(plan, "force")]
+        rates, taus = [], []
+        for y, ydot, fk in zip(pos, vel, force):
+            start = self.configs[int(np.argmin(np.abs(self.grid - y)))]  # the tabulated branch
+            _, rate, grav, per_f = joint_kinematics(self.arm, float(y), start)
+            rates.append(rate * ydot)
+            taus.append(grav + per_f * fk)
+        return np.array(rates)[1:], np.array(taus)
+
+    def residuals(self, plan: Plan, scale: float) -> dict[str, float]:
+        """Worst |joint velocity| - scale * limit (rad/s) and |joint torque| - scale * limit (N m), >= 0."""
+        qd, tau = self.exact(plan)
+        over_v = np.abs(qd) - scale * self.velocity_limit
+        over_t = np.abs(tau) - scale * self.torque_limit
+        return {"joint_velocity": max(0.0, float(over_v.max(initial=-np.inf))),
+                "joint_torque": max(0.0, float(over_t.max(initial=-np.inf)))}
+
+    def binding(self, plan: Plan, scale: float) -> tuple[str, str, float]:
+        """(joint, "velocity" or "torque", |value| / (scale * limit)) of the joint nearest to (or
+        furthest over) its scaled limit: what a suggestion names."""
+        qd, tau = self.exact(plan)
+        rv = (np.abs(qd) / (scale * self.velocity_limit)).max(axis=0, initial=0.0)
+        rt = (np.abs(tau) / (scale * self.torque_limit)).max(axis=0)
+        if rv.max() > rt.max():
+            j = int(np.argmax(rv))
+            return self.names[j], "velocity", float(rv[j])
+        j = int(np.argmax(rt))
+        return self.names[j], "torque", float(rt[j])
+
+
+def _column(plan: Plan, kind: str) -> int:
+    return next(j for j, c in enumerate(plan.channels) if c.kind == kind)
+
+
+def tabulate(arm: ArmModel, lo: float, hi: float, seed: float, step: float = GRID_STEP,
+             margin: float = GRID_MARGIN) -> JointMap:
+    """The JointMap of `arm` over [lo, hi] (and `margin` beyond, where the arm reaches). The IK
+    branch is the one the arm holds at `seed` (the plan's start, where the simulator places it from
+    the home posture), followed continuously outwards: the arm moves, it does not jump branches
+    (IK from the home posture alone switches the UR5 to another branch near y = 0.4 m)."""
+    n = int(np.ceil((hi - lo + 2 * margin) / step)) + 1
+    grid = np.linspace(lo - margin, hi + margin, n)
+    i0 = int(np.argmin(np.abs(grid - seed)))
+    q_seed = arm.ik(np.array([seed]), None)
+    found: dict[int, tuple] = {}
+    for order in (range(i0, n), range(i0 - 1, -1, -1)):
+        start = q_seed
+        for i in order:
+            y = float(grid[i])
+            try:
+                found[i] = joint_kinematics(arm, y, start)
+            except ValueError:
+                if lo <= y <= hi:
+                    raise ProblemError(f"the arm cannot reach position {y:.4g} m within [q_min, q_max] = "
+                                       f"[{lo:g}, {hi:g}]: no joint limits can be held there") from None
+                break
+            start = found[i][0]
+    idx = sorted(found)
+    model = arm.model
+    return JointMap(names=arm.joints, velocity_limit=np.array(model.velocityLimit, dtype=float),
+                    torque_limit=np.array(model.effortLimit, dtype=float), grid=grid[idx],
+                    configs=np.array([found[i][0] for i in idx]), rate=np.array([found[i][1] for i in idx]),
+                    gravity=np.array([found[i][2] for i in idx]), force=np.array([found[i][3] for i in idx]), arm=arm)
+
+
+def joint_map(problem: Any) -> JointMap:
+    """The JointMap of `problem`'s task over its position limits, on the IK branch of its start
+    q0 (cached per task, limits and start);
+    a one-line ProblemError where the task offers no arm or has more than one position axis."""
+    task = get_task(problem.task)
+    if len(task.channels_of("position")) != 1:
+        raise ProblemError(f"joint_limit_scale: task {task.name!r} has {len(task.channels_of('position'))} position "
+                           "axes; the arm's joint limits are held for one-axis tasks only")
+    lo, hi, q0 = (float(problem.vec(k)[0]) for k in ("q_min", "q_max", "q0"))
+    key = (task.name, lo, hi, q0)
+    if key not in _CACHE:
+        arm = task.arm_model(problem)
+        if arm is None:
+            raise ProblemError(f"joint_limit_scale: task {task.name!r} has no arm model (Task.arm_model), "
+                               "so its joint limits cannot be held; leave joint_limit_scale out")
+        _CACHE[key] = tabulate(arm, lo, hi, q0)
+    return _CACHE[key]

@@ -1,0 +1,44 @@
+"""The scoop's arm along the scooping line, for the planners' joint-limit constraints: the TCP at
+(x_home, y, contact height), level (rotation identity), as the rollout places and holds it while
+the plan runs (rollout.Simulator.home_joints, Execution), pressing down (-z) on the plate.
+
+Pinocchio and the robot's URDF load only here, when a planner asks (ScoopTask.arm_model).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+
+from judgeopt.sim.arm import ARM_JOINTS, HOME_POSTURE
+from judgeopt.sim.controller import solve_ik
+from judgeopt.sim.robot import robot_urdf
+from judgeopt.tasks.base import ArmModel
+from judgeopt.tasks.scoop.scene import SceneConfig
+
+#: the TCP frame the controller tracks (sim.controller.HybridController's default)
+TCP_FRAME = "tcp"
+
+
+def scoop_arm(scene: SceneConfig | None = None) -> ArmModel:
+    """The UR5 + spatula of `scene` (default: the shipped one) as an ArmModel: the same URDF the
+    simulator and its controller load, the same IK and home posture the rollout starts from."""
+    cfg = scene or SceneConfig()
+    model = pin.buildModelFromUrdf(str(robot_urdf(cfg.spatula, wrist_inertia=cfg.wrist_inertia)))
+    tcp = model.getFrameId(TCP_FRAME)
+    z_contact = cfg.spatula.tcp_height_on_plate()
+    x_home = cfg.x_home
+
+    def pose(position: np.ndarray) -> pin.SE3:
+        return pin.SE3(np.eye(3), np.array([x_home, float(np.ravel(position)[0]), z_contact]))
+
+    def ik(position: np.ndarray, start: np.ndarray | None = None) -> np.ndarray:
+        # as ArmDriver.joints_for: angles wrapped to [-pi, pi)
+        q = solve_ik(model, tcp, pose(position), HOME_POSTURE if start is None else start)
+        return (q + np.pi) % (2 * np.pi) - np.pi
+
+    joints = tuple(model.names[i] for i in range(1, model.njoints))
+    if joints != ARM_JOINTS:
+        raise RuntimeError(f"the robot's URDF has joints {joints}, not the arm's {ARM_JOINTS}")
+    return ArmModel(model=model, tool_frame=tcp, joints=joints, pose=pose, ik=ik,
+                    axes=np.array([[0.0, 1.0, 0.0]]), force_axis=np.array([0.0, 0.0, -1.0]))
