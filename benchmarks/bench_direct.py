@@ -6,6 +6,7 @@ is the shipped default. A variant is `key=value,...` over:
   objective   target (least effort and change to the warm start, p >= p_target) | log_p (eq. 3)
   hessian     exact (every term but the judge's) | limited-memory
   backend     the judge's CasADi function (judgeopt.judge.casadi_fn.BACKENDS)
+  a_max, jerk_max, fdot_max, joint_limit_scale, bound=NAME:LO:HI@T0:T1 (repeatable): [constraints]
   any Ipopt option by name (mu_init=1e-3, ...)
 
     .venv/bin/python benchmarks/bench_direct.py --n 100                  # the targets (both tasks)
@@ -67,6 +68,10 @@ def parse_variant(text: str) -> tuple[dict, str, dict]:
         k, _, v = item.partition("=")
         if k == "objective":
             over[k] = v
+        elif k in ("a_max", "jerk_max", "fdot_max", "joint_limit_scale"):
+            over[k] = float(v)
+        elif k == "bound":
+            over.setdefault("bounds", []).append(v)
         elif k == "backend":
             backend = v
         elif k == "hessian":

@@ -75,7 +75,7 @@ def earliest(direct: Planner, env: dict[str, float], guess: Plan | None = None,
     best.solve_time_s = time.perf_counter() - t0
     best.iterations = sum(r.iterations or 0 for r in tried.values())
     found = reached(best, pr.p_target)
-    best.info.update(min_time_s=best_k * pr.dt if found else None, horizon_s=n * pr.dt,
+    best.info.update(min_time_s=round(best_k * pr.dt, 9) if found else None, horizon_s=round(n * pr.dt, 9),
                      min_time_tried={f"{k * pr.dt:g}": bool(reached(r, pr.p_target)) for k, r in sorted(tried.items())})
     if found:
         best.message += (f"; min-time: at rest at the terminal state from t = {best_k * pr.dt:g} s of the "
