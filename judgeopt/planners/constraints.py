@@ -20,6 +20,7 @@ from typing import Any, Sequence
 
 import numpy as np
 
+from judgeopt.errors import UsageError
 from judgeopt.trajectory import Channel, Plan
 
 #: a sample lies in a window when within this of its edges (s): 0.4 s is sample 8 at dt = 0.05
@@ -33,7 +34,7 @@ _BOUND = re.compile(rf"^\s*(?P<name>[A-Za-z_]\w*)\s*:\s*(?P<lo>{_NUMBER})\s*:\s*
 RATE_LIMITS = {"a_max": "acceleration", "jerk_max": "jerk", "fdot_max": "force rate"}
 
 
-class ConstraintError(ValueError):
+class ConstraintError(UsageError, ValueError):
     """A constraint written wrongly (problem.py turns it into a ProblemError naming the file)."""
 
 

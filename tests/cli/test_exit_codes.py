@@ -18,6 +18,7 @@ TABLE: dict[str, ExitCode] = {
     "judgeopt.tasks.base.TaskError": ExitCode.USAGE,
     "judgeopt.tasks.base.EnvironmentRangeError": ExitCode.USAGE,
     "judgeopt.planners.problem.ProblemError": ExitCode.USAGE,
+    "judgeopt.planners.constraints.ConstraintError": ExitCode.USAGE,
     "judgeopt.planners.problem.InfeasibleProblemError": ExitCode.INFEASIBLE,
     "judgeopt.planners.problem.ProblemFileError": ExitCode.BAD_INPUT,
     "judgeopt.planners.store.GeneratorFileError": ExitCode.BAD_INPUT,
