@@ -433,6 +433,21 @@ class DirectPlanner(Planner):
         new._lbx, new._ubx, new._lbg, new._ubg = lbx, ubx, lbg, ubg
         return new
 
+    def details(self, result: PlanResult) -> list[str]:
+        """Under min_time, the time found against the horizon; with joint limits, the joint
+        nearest its scaled limit."""
+        lines = []
+        if result.info.get("min_time_s") is not None:
+            tried = ", ".join(f"{t} s {'yes' if ok else 'no'}" for t, ok in result.info["min_time_tried"].items())
+            lines.append(f"{self.method}, min-time: at rest at the terminal state from t = "
+                         f"{result.info['min_time_s']:g} s of the {result.info['horizon_s']:g} s horizon "
+                         f"(candidates, p >= {self.problem.p_target:g} reached: {tried})")
+        if self._joints is not None and result.plan is not None:
+            joint, quantity, ratio = self._joints.binding(result.plan, self.problem.joint_limit_scale)
+            lines.append(f"{self.method}, joints: {joint}'s {quantity} is the nearest its limit x "
+                         f"{self.problem.joint_limit_scale:g}, at {ratio:.0%} of it")
+        return lines
+
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
         return pessimistic([m.fn(traj, env)[0] for m in self.members], self.problem.pessimism, cs.sqrt, cs.fmin, 1e-9)
