@@ -62,6 +62,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.table == "trials":
         return cmd_trials(args)
     problem = load_problem(resolve(args.problem or _default_problem(args.table)))
+    if args.limits:
+        from judgeopt.evaluate.sweep import parse_limit_set
+
+        if len(args.limits) > 1:
+            raise CLIError(f"--limits: `evaluate {args.table}` takes one set (a sweep takes several)")
+        problem = problem.with_overrides(**dict(parse_limit_set(args.limits[0]).overrides))
     available = tables(problem.task)
     if args.table not in available:
         raise ProblemError(f"table {args.table!r} is not one of task {problem.task!r}'s ({', '.join(available)}); "
@@ -89,6 +95,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     summary = summarise(rows, results)
     title = table.title.format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
                                f_min=problem.f_min, f_max=problem.f_max, env=_env_text(problem))
+    if problem.constraints.is_set():
+        from judgeopt.planners.constraints import describe
+
+        title += "; constraints " + ", ".join(f"{k} {', '.join(v) if k == 'bounds' else v}"
+                                              for k, v in describe(problem.constraints).items())
     files = write_report(summary, out, args.table, title, results, rows)
     print(markdown(summary, title))
     print("command: judgeopt evaluate " + " ".join(f"{a}" for a in _argv(args)))
@@ -99,9 +110,10 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, markdown_sweep, parse_limit_set, plot_sweep,
-                                         random_limit_sets, summarise_sweep, sweep_rows)
+                                         random_constraint_sets, random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
     from judgeopt.planners.calibration import calibrate_rows
+    from judgeopt.planners.constraint_ranges import corners
     from judgeopt.cli.planners import limit_ranges_from_args
     from judgeopt.planners.limits import wide_limits
     from judgeopt.planners.problem import load_problem
@@ -112,7 +124,15 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     if args.judge:  # every planner against this judge (its calibration applies only where it has one)
         problem = problem.with_overrides(judge=args.judge)
     vary = _vary(problem, args.vary) if args.vary else None
-    if args.random_limits:
+    if args.random_constraints is not None and (args.random_limits or args.limits):
+        raise CLIError("--random-constraints: draws constraint sets at the problem's limits; leave out "
+                       f"{'--random-limits' if args.random_limits else '--limits'} (or give constraints in --limits)")
+    what = "limit"
+    if args.random_constraints is not None:
+        varied = problem if vary is None else problem.with_overrides(**{vary[0]: list(vary[1])})
+        sets = random_constraint_sets(args.random_constraints, args.seed, problem, envs=corners(varied))
+        what = "constraint"
+    elif args.random_limits:
         ranges = limit_ranges_from_args(args, wide_limits(problem.task))
         ranges.check(problem)
         sets = random_limit_sets(args.random_limits, args.seed, ranges)
@@ -129,7 +149,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         reassess(rs)
     summary = summarise_sweep(sets, rows, results, methods)
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
-    title = f"Held-out limit sets ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
+    at = f" at the limits of {problem.name}" if what == "constraint" else ""
+    title = f"Held-out {what} sets{at} ({args.n} environments each, {env}, seed {args.seed}; judge {problem.judge})"
     md = markdown_sweep(summary, title)
     return _report(args, out / "sweep", md, summary, plot_sweep(summary, title), notes)
 
@@ -293,6 +314,8 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
         ["--judge", args.judge] if args.judge else [])
     extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--vary", f"{args.vary[0]}={args.vary[1][0]:g},{args.vary[1][1]:g}"] if args.vary else [])
+    extra += (["--random-constraints", str(args.random_constraints)] if getattr(args, "random_constraints", None)
+              else [])
     extra += (["--random-limits", str(args.random_limits)] if args.random_limits else []) + (
         [] if args.baselines else ["--no-baselines"])
     extra += [f"--{k.replace('_', '-')} {v[0]:g},{v[1]:g}" for k, v in vars(args).items()
@@ -379,12 +402,17 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "task's perturbations, one at a time; trials: each planner's plan tried --trials times, the world "
                    "drawn anew each time (a lab's repeated trials); the scoop's table4, "
                    "table5 (the paper's tables) and compare (planners and remedies side by side)")
-    e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit sets, each NAME=VALUE,... (e.g. "
-                   "qdot_max=0.6,f_max=18) or a problem .toml (default: six held-out sets)")
+    e.add_argument("--limits", nargs="+", metavar="SET", help="sweep: limit and constraint sets, each NAME=VALUE,... "
+                   "(e.g. qdot_max=0.6,f_max=18 or a_max=2,fdot_max=60,bound=f:0:12@0:0.4; bound repeatable) or a "
+                   "problem .toml (default: six held-out sets); other tables: one such set, applied to the problem")
     e.add_argument("--vary", type=env_range, metavar="NAME=LO,HI", help="sweep: draw this environment variable from "
                    "LO,HI instead of the problem's range (seeded by the range)")
     e.add_argument("--random-limits", type=int, metavar="K", help="sweep: K limit sets drawn (by --seed) from the "
                    "--*-range ranges instead of --limits (e.g. to fit `judgeopt calibrate --over-limits`)")
+    e.add_argument("--random-constraints", type=int, metavar="K", help="sweep: K constraint sets (a_max, jerk_max, "
+                   "fdot_max and an early force cap) drawn by --seed at the problem's limits from ranges that bind on "
+                   "the generator's plans, each feasible for the problem's environments (judgeopt.evaluate.sweep."
+                   "ConstraintRanges); instead of --limits")
     add_limit_range_arguments(e.add_argument_group("sweep --random-limits ranges"))
     e.add_argument("--baselines", action=argparse.BooleanOptionalAction, default=True,
                    help="sweep: also the no-judge baseline and the feasibility search (default: on)")

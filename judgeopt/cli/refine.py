@@ -24,6 +24,10 @@ def cmd_refine(args: argparse.Namespace) -> int:
     if ranges is not None:
         ranges.check(problem)
     chosen = {"methods": tuple(args.methods)} if args.methods else {}  # default: RefineConfig's
+    if args.sample_constraints:
+        from judgeopt.planners.constraint_ranges import ConstraintRanges
+
+        chosen["constraint_ranges"] = ConstraintRanges()
     cfg = RefineConfig(rounds=args.rounds, n=args.n, **chosen, seed=args.seed,
                        judge_epochs=args.judge_epochs, weight=args.weight, generator_epochs=args.generator_epochs,
                        chunk=args.chunk, limit_ranges=ranges)
@@ -139,4 +143,11 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
                              "the generator (with --generator-epochs) becomes a conditioned one over these ranges")
     g.add_argument("--sample-limits", action="store_true", help="sample the limits per environment")
     add_limit_range_arguments(g)
+    c = r.add_argument_group("constraint sampling", "plan each environment under its own [constraints] set: "
+                             "a_max, jerk_max, fdot_max and an early force cap F:0:HI@0:T1, drawn uniformly from "
+                             "judgeopt.planners.constraint_ranges.ConstraintRanges (the ranges `judgeopt evaluate "
+                             "sweep --random-constraints` draws held-out sets from) and feasible for that environment, "
+                             "so the judge learns from plans made under constraints it was never trained on")
+    c.add_argument("--sample-constraints", action="store_true", help="sample a constraint set per environment "
+                   "(with --sample-limits: feasible at that environment's sampled limits)")
     r.set_defaults(func=cmd_refine)

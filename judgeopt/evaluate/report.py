@@ -29,6 +29,35 @@ def cell(v, fmt: str, suffix: str = "") -> str:
     return "-" if v is None or (isinstance(v, float) and math.isnan(v)) else f"{v:{fmt}}{suffix}"
 
 
+#: a plan holds a constraint when its residual is at most this (in the constraint's units): the
+#: target the direct solve is held to on [constraints] it was given
+HELD_TOL = 1e-6
+#: residuals every plan has; any other is of the problem's [constraints]
+BASE_RESIDUALS = frozenset({"q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "start",
+                            "dynamics"})
+
+
+def violations(rows: list[dict]) -> dict:
+    """Over the plans among `rows` (result rows with residuals): the worst constraint violation and
+    the constraint it is of, and how many plans held every constraint (limits, terminal state, model
+    and [constraints]) to HELD_TOL."""
+    checked = [r for r in rows if r.get("max_constraint_violation") is not None]
+    worst = max(checked, key=lambda r: r["max_constraint_violation"], default=None)
+    return {"violation_max": None if worst is None else float(worst["max_constraint_violation"]),
+            "worst_constraint": None if worst is None else worst.get("worst_constraint"),
+            "held_plans": sum(r["max_constraint_violation"] <= HELD_TOL for r in checked),
+            "plans_checked": len(checked)}
+
+
+def violation_cells(s: dict) -> str:
+    """The two Markdown cells of `violations`: worst violation (its constraint), plans that held every one."""
+    if not s.get("plans_checked"):
+        return "| - | - |"
+    worst = f"{s['violation_max']:.1e}" + (f" ({s['worst_constraint']})" if s["violation_max"] > HELD_TOL
+                                          and s.get("worst_constraint") else "")
+    return f"| {worst} | {s['held_plans']}/{s['plans_checked']} |"
+
+
 #: reliability bins: the planners' predictions crowd near 1, so the upper bins are narrow
 BINS = (0.0, 0.5, 0.8, 0.9, 0.95, 0.98, 0.99, 1.0)
 
@@ -78,15 +107,20 @@ def summarise(rows: list[Row], results: dict[str, list[dict]]) -> list[dict]:
                     "calibrated_ece": calibration_error(cpred, csim) if cal else None,
                     "calibration_fitted_on_these_envs": sum(bool(r.get("calibration_fitted_on_env")) for r in cal),
                     "violation_max": max((r["max_constraint_violation"] for r in rs), default=None),
+                    "constraints_set": any(set(r.get("residuals") or ()) - BASE_RESIDUALS for r in results[row.key]),
+                    **{k: v for k, v in violations(results[row.key]).items() if k != "violation_max"},
                     "time_median_s": float(np.median([r["solve_time_s"] for r in rs])) if rs else None})
     return out
 
 
 def markdown(summary: list[dict], title: str) -> str:
+    """The table; with a column of plans that held every constraint where the problem has [constraints]."""
+    held = any(s.get("constraints_set") for s in summary)
     lines = [f"### {title}", "",
              "| row | planner | environment | simulated success | 95 % CI | paper | mean predicted | predicted - simulated | ECE "
-             "| calibrated | calibrated - simulated | worst violation | median time |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| calibrated | calibrated - simulated | worst violation | " + (f"held every constraint ({HELD_TOL:g}) | "
+                                                                           if held else "") + "median time |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|" + ("---|" if held else "") + "---|"]
     reused = sum(s["calibration_fitted_on_these_envs"] for s in summary)
     for s in summary:
         pred = f"{s['predicted_mean']:.3f}" if s["predicted_mean"] is not None else "-"
@@ -95,6 +129,9 @@ def markdown(summary: list[dict], title: str) -> str:
         cmean = f"{s['calibrated_mean']:.3f}" if s["calibrated_mean"] is not None else "-"
         cgap = f"{s['calibrated_gap_pct']:+.0f} pts" if s["calibrated_gap_pct"] is not None else "-"
         viol = f"{s['violation_max']:.1e}" if s["violation_max"] is not None else "-"
+        if held:
+            cells = violation_cells(s)  # "| worst (its constraint) | held/checked |"
+            viol = cells[2:-2]
         t = s["time_median_s"]
         tt = "-" if t is None or s["method"] == "random" else (f"{t * 1e3:.2f} ms" if t < 1 else f"{t:.2f} s")
         paper = f"{s['paper_pct']:g} %" if s["paper_pct"] is not None else "-"

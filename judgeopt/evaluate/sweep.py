@@ -7,6 +7,13 @@ the simulator itself. An environment counts as feasible when any of them succeed
 did, the honest statement is "no successful plan found in N tries". Per limit set this gives
 what a user needs to trust a verdict: success where success was found possible, the verdict
 where it was not, and whether the probabilities match the outcomes.
+
+A set may hold constraints beyond the limits too ([constraints]: a_max, jerk_max, fdot_max,
+window bounds): the generator never saw them, the direct solve (warm-started from it) holds
+them, and every plan's worst violation is reported per set and planner beside how many plans
+held every constraint to HELD_TOL. `random_constraint_sets` draws held-out ones that bind on
+the generator's plans at the problem's limits (ConstraintRanges and the drawing of one set live in
+judgeopt.planners.constraint_ranges, which `judgeopt refine --sample-constraints` draws from too).
 """
 
 from __future__ import annotations
@@ -17,9 +24,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from judgeopt.evaluate.report import cell
+from judgeopt.evaluate.report import HELD_TOL, cell, violation_cells, violations
 from judgeopt.evaluate.tables import Row
 from judgeopt.planners.base import REGISTRY, planner_names
+from judgeopt.planners.constraint_ranges import CONSTRAINT_DRAWS, ConstraintRanges, draw_constraints  # noqa: F401
+from judgeopt.planners.constraint_ranges import corners
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
 if TYPE_CHECKING:
@@ -33,32 +42,65 @@ DEFAULT_LIMIT_SETS = ("qdot_max=0.6,f_max=18", "qdot_max=0.3,f_min=5,f_max=25", 
 
 @dataclass(frozen=True)
 class LimitSet:
+    """A label and the problem fields it overrides: limits, and [constraints] (bounds: a tuple of
+    NAME:LO:HI@T0:T1 strings)."""
+
     label: str
-    overrides: tuple[tuple[str, float], ...]
+    overrides: tuple[tuple[str, object], ...]
+
+
+#: [constraints] fields a set may give one number each (a position axis' or force channel's all alike)
+CONSTRAINT_NUMBERS = ("a_max", "jerk_max", "fdot_max", "joint_limit_scale")
+def _constraint_pairs(problem: Problem) -> list[tuple[str, object]]:
+    from judgeopt.planners.constraints import describe
+
+    return [(k, tuple(v) if k == "bounds" else v) for k, v in describe(problem.constraints).items()]
+
+
+def _label(pairs: list[tuple[str, object]]) -> str:
+    return ", ".join(", ".join(v) if k == "bounds" else f"{k} {v:g}" for k, v in pairs)
 
 
 def parse_limit_set(text: str) -> LimitSet:
-    """`qdot_max=0.6,f_max=18` (limit fields), or a problem file whose limits are taken whole."""
+    """`qdot_max=0.6,f_max=18,a_max=2,bound=f:0:12@0:0.4` (limit and [constraints] fields; bound
+    repeatable), or a problem file whose limits and constraints are taken whole."""
+    from judgeopt.planners.constraints import Bound, ConstraintError
+
     names = SECTIONS["limits"]
     if text.endswith(".toml"):
         from judgeopt.files import resolve
 
         p = load_problem(resolve(text))
-        return LimitSet(Path(text).stem, tuple((k, float(getattr(p, k))) for k in names))
-    pairs = []
+        return LimitSet(Path(text).stem, tuple((k, float(getattr(p, k))) for k in names) + tuple(_constraint_pairs(p)))
+    pairs: list[tuple[str, object]] = []
+    bounds: list[str] = []
+    allowed = (*names, *CONSTRAINT_NUMBERS, "bound")
     for item in filter(None, (t.strip() for t in text.split(","))):
         name, _, value = item.partition("=")
         name = name.strip().replace("-", "_")
-        if name not in names:
-            raise ProblemError(f"limit set {text!r}: {name!r} is not a limit; use {', '.join(names)} "
-                               "(e.g. qdot_max=0.6,f_max=18) or a problem .toml file")
+        name = "bound" if name == "bounds" else name
+        if name not in allowed:
+            raise ProblemError(f"limit set {text!r}: {name!r} is not a limit or constraint; use {', '.join(allowed)} "
+                               "(e.g. qdot_max=0.6,f_max=18,a_max=2,bound=f:0:12@0:0.4) or a problem .toml file")
+        if name == "bound":
+            try:
+                bounds.append(Bound.parse(value.strip()).text)
+            except ConstraintError as exc:
+                raise ProblemError(f"limit set {text!r}: {exc}") from None
+            continue
         try:
-            pairs.append((name, float(value)))
+            x = float(value)
         except ValueError:
             raise ProblemError(f"limit set {text!r}: {value!r} is not a number for {name}") from None
+        if name in CONSTRAINT_NUMBERS and not x > 0:
+            raise ProblemError(f"limit set {text!r}: {name} = {value.strip()} must be a positive number")
+        pairs.append((name, x))
+    if bounds:
+        pairs.append(("bounds", tuple(bounds)))
     if not pairs:
-        raise ProblemError(f"limit set {text!r} names no limit (e.g. qdot_max=0.6,f_max=18)")
-    return LimitSet(", ".join(f"{k} {v:g}" for k, v in pairs), tuple(pairs))
+        raise ProblemError(f"limit set {text!r} names no limit or constraint (e.g. qdot_max=0.6,f_max=18 or "
+                           "a_max=2,bound=f:0:12@0:0.4)")
+    return LimitSet(_label(pairs), tuple(pairs))
 
 
 def random_limit_sets(k: int, seed: int, ranges=None) -> list[LimitSet]:
@@ -70,6 +112,27 @@ def random_limit_sets(k: int, seed: int, ranges=None) -> list[LimitSet]:
         raise ProblemError(f"--random-limits {k}: need at least one limit set")
     draws = (ranges or WIDE_LIMITS).sample(np.random.default_rng([seed, 4241]), k)
     return [parse_limit_set(",".join(f"{n}={v:.3g}" for n, v in zip(CONDITION_NAMES, d))) for d in draws]
+
+
+def random_constraint_sets(k: int, seed: int, problem: Problem, ranges: ConstraintRanges = ConstraintRanges(),
+                           envs: list[dict[str, float]] | None = None) -> list[LimitSet]:
+    """k constraint sets drawn (seeded) from `ranges`, each feasible at the problem's limits for
+    every environment in `envs` (default: the corners of its environment ranges): one
+    judgeopt.planners.constraint_ranges.draw_constraints per set from one rng, which redraws a set
+    that is not feasible, up to CONSTRAINT_DRAWS times."""
+    if k < 1:
+        raise ProblemError(f"--random-constraints {k}: need at least one constraint set")
+    rng = np.random.default_rng([seed, 4243])
+    envs = envs if envs is not None else corners(problem)
+    out = []
+    for _ in range(k):
+        try:
+            overrides = draw_constraints(rng, problem, ranges, envs)
+        except ProblemError as exc:
+            raise ProblemError(f"--random-constraints: {exc}") from None
+        pairs = list(overrides.items())
+        out.append(LimitSet(_label(pairs), tuple(pairs)))
+    return out
 
 
 def sweep_methods() -> tuple[str, ...]:
@@ -144,7 +207,7 @@ def summarise_sweep(sets: list[LimitSet], rows: list[Row], results: dict[str, li
             none = [res[e] for e in none_found if e in res]
             p = [r["success_probability"] for r in res.values()]
             sim = [r["simulated_success"] for r in res.values()]
-            out.append({**base, "method": m, "planned": len(res),
+            out.append({**base, "method": m, "planned": len(res), **violations([rs[0] for rs in mine[m].values()]),
                         "success_where_feasible": int(sum(feas)), "feasible_planned": len(feas),
                         "success_where_feasible_pct": 100 * _mean(feas) if feas else None,
                         "simulated_pct": 100 * _mean(sim) if sim else None,
@@ -163,26 +226,30 @@ def markdown_sweep(summary: list[dict], title: str) -> str:
     lines = [f"### {title}", "",
              "| limit set | feasible found | no success found (search tries) | no-judge | planner "
              "| success where feasible | mean p | p - simulated | p where none found | 'unlikely' where none found "
-             "| verdict accuracy | p calibrated |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
+             f"| verdict accuracy | p calibrated | worst violation | held every constraint ({HELD_TOL:g}) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary:
         infeasible = f", {s['infeasible_before_solving']} infeasible before solving" if s["infeasible_before_solving"] else ""
         tries = f" ({s['search_tries_where_none_found']}+ tries)" if s["search_tries_where_none_found"] else ""
         head = (f"| {s['limit_set']} | {s['feasible_found']}/{s['environments']}{infeasible} | {s['none_found']}{tries} "
                 f"| {cell(s['nojudge_success_pct'], '.0f', ' %')} | {s['method']} ")
         if not s["planned"]:
-            lines.append(head + "| no generator for these limits | | | | | | |")
+            lines.append(head + "| no generator for these limits | | | | | | | | |")
             continue
         lines.append(head + f"| {s['success_where_feasible']}/{s['feasible_planned']} "
                      f"({cell(s['success_where_feasible_pct'], '.0f', ' %')}) | {cell(s['success_probability_mean'], '.3f')} "
                      f"| {cell(s['gap_pct'], '+.0f', ' pts')} | {cell(s['p_where_none_found'], '.3f')} "
                      f"| {cell(s['unlikely_where_none_found_pct'], '.0f', ' %')} | {cell(s['verdict_accuracy_pct'], '.0f', ' %')} "
-                     f"| {cell(s['calibrated_share'], '.0%')} |")
+                     f"| {cell(s['calibrated_share'], '.0%')} " + violation_cells(s))
     lines += ["", "Feasible found: environments where any planner, a random constraint-satisfying plan or the "
               "simulator-scored search succeeded. Where none did, the search found no successful plan in the tries "
               "shown: that is not a proof that none exists. p: the success probability the tool reports (calibrated "
               "where a calibration covers the setting, else the judge's); verdict accuracy: 'likely' matched success "
-              "and 'unlikely' failure in simulation."]
+              "and 'unlikely' failure in simulation. Worst violation: the largest residual of any constraint (limits, "
+              "terminal state, motion model, and [constraints]'s rate limits and window bounds) over the set's plans, "
+              "in that constraint's units, with the constraint; held: plans whose every residual is at most "
+              f"{HELD_TOL:g}. The generator never saw [constraints]; the direct solve, warm-started from it, holds "
+              "them."]
     return "\n".join(lines) + "\n"
 
 
@@ -192,19 +259,22 @@ def plot_sweep(summary: list[dict], title: str) -> Figure:
 
     sets = list(dict.fromkeys(s["limit_set"] for s in summary))
     methods = list(dict.fromkeys(s["method"] for s in summary))
-    fig = Figure(figsize=(12, 4))
-    axes = fig.subplots(1, 2)
+    fig = Figure(figsize=(17, 4))
+    axes = fig.subplots(1, 3)
     width = 0.8 / (len(methods) + 1)
     x = np.arange(len(sets))
     for j, m in enumerate(methods):
         ss = [next((s for s in summary if s["limit_set"] == ls and s["method"] == m), {}) for ls in sets]
         axes[0].bar(x + j * width, [s.get("success_where_feasible_pct") or 0 for s in ss], width, label=m)
         axes[1].bar(x + j * width, [s.get("unlikely_where_none_found_pct") or 0 for s in ss], width, label=m)
+        axes[2].bar(x + j * width, [100 * s["held_plans"] / s["plans_checked"] if s.get("plans_checked") else 0
+                                    for s in ss], width, label=m)
     first = [next(s for s in summary if s["limit_set"] == ls) for ls in sets]
-    axes[0].bar(x + len(methods) * width, [s["nojudge_success_pct"] or 0 for s in first], width, label="no judge",
-                color="0.6")
+    axes[0].bar(x + len(methods) * width, [s.get("nojudge_success_pct") or 0 for s in first], width,
+                label="no judge", color="0.6")
     axes[0].set_ylabel("success where a successful plan was found [%]")
     axes[1].set_ylabel("verdict 'unlikely' where none was found [%]")
+    axes[2].set_ylabel(f"plans holding every constraint to {HELD_TOL:g} [%]")
     for ax in axes:
         ax.set_xticks(x + width * len(methods) / 2, sets, rotation=20, ha="right", fontsize=7)
         ax.set_ylim(0, 105)

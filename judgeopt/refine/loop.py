@@ -33,6 +33,7 @@ import numpy as np
 
 from judgeopt.files import atomic_write, refuse_overwrite
 from judgeopt.parallel import run_chunks
+from judgeopt.planners.constraint_ranges import ConstraintRanges
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem
 
@@ -60,6 +61,10 @@ class RefineConfig:
     # limits), so the judge sees outcomes of plans made under many limits, failures included;
     # the generator is then fine-tuned as a conditioned one over the same ranges
     limit_ranges: LimitRanges | None = None
+    # draw a [constraints] set (a_max, jerk_max, fdot_max, an early force cap) per environment
+    # from these ranges (None: the problem's own constraints), each feasible for its environment
+    # (at its sampled limits), so the judge sees outcomes of plans made under constraints too
+    constraint_ranges: ConstraintRanges | None = None
 
     def __post_init__(self) -> None:
         from judgeopt.planners.problem import ProblemError
@@ -68,6 +73,8 @@ class RefineConfig:
             raise ProblemError(f"rounds, n, judge_epochs, weight and chunk must be at least 1: {self}")
         if self.limit_ranges is not None and not isinstance(self.limit_ranges, LimitRanges):
             object.__setattr__(self, "limit_ranges", LimitRanges.from_dict(self.limit_ranges))
+        if self.constraint_ranges is not None and not isinstance(self.constraint_ranges, ConstraintRanges):
+            object.__setattr__(self, "constraint_ranges", ConstraintRanges.from_dict(self.constraint_ranges))
         from judgeopt.planners.base import planner_names, spec_of
 
         closed = [m for m in self.methods if spec_of(m).closed_loop]
@@ -81,9 +88,11 @@ class RefineConfig:
 
 
 def _solved(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None, envs: np.ndarray,
-            limits: np.ndarray | None) -> Iterator[tuple[int, dict[str, float], dict[str, float], Any]]:
-    """(i, environment, limits, PlanResult) for each planned environment and method;
-    `limits`: (n, 3) q̇_max, f_min, f_max per environment (None: the problem's)."""
+            limits: np.ndarray | None, constraints: list[dict[str, Any]] | None = None
+            ) -> Iterator[tuple[int, dict[str, float], dict[str, float], dict[str, Any], Any]]:
+    """(i, environment, limits, constraints, PlanResult) for each planned environment and method;
+    `limits`: (n, 3) q̇_max, f_min, f_max per environment (None: the problem's); `constraints`:
+    a [constraints] override set per environment (None: the problem's)."""
     import torch
 
     from judgeopt.evaluate.batch import planners as load_planners
@@ -93,36 +102,45 @@ def _solved(problem: Problem, methods: tuple[str, ...], judge: str, generator: s
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
         lim = {} if limits is None else dict(zip(CONDITION_NAMES, map(float, limits[i])))
-        for r in (planners.with_limits(**lim) if lim else planners).solve(env):
+        con = {} if constraints is None else _as_overrides(constraints[i])
+        over = {**lim, **con}
+        for r in (planners.with_limits(**over) if over else planners).solve(env):
             if r.plan is not None:  # None: limits infeasible for this environment, nothing to run
-                yield i, env, lim, r
+                yield i, env, lim, con, r
+
+
+def _as_overrides(constraints: dict[str, Any]) -> dict[str, Any]:
+    """A constraint set as problem overrides (bounds a tuple: JSON gives a list)."""
+    return {k: tuple(v) if k == "bounds" else v for k, v in constraints.items()}
 
 
 def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None,
-                envs: np.ndarray, first: int, limits: np.ndarray | None = None) -> list[dict[str, Any]]:
+                envs: np.ndarray, first: int, limits: np.ndarray | None = None,
+                constraints: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
     """Plan, replay, and keep what the dataset needs: the command, the measured response, the
     label."""
     from judgeopt.evaluate.batch import simulator
 
     sim = simulator(problem.task)
     rows = []
-    for i, env, lim, r in _solved(problem, methods, judge, generator, envs, limits):
+    for i, env, lim, con, r in _solved(problem, methods, judge, generator, envs, limits, constraints):
         out = sim.simulate(r.plan, problem.world_env(env))
         rows.append({"env_index": first + i, "method": r.method, "env": [env[k] for k in problem.env_names],
-                     "limits": lim, "command": r.plan.as_array().tolist(), "response": out.response.tolist(),
+                     "limits": lim, **({"constraints": con} if con else {}), "command": r.plan.as_array().tolist(), "response": out.response.tolist(),
                      "success": bool(out.success), "predicted": r.predicted_success,
                      "violation": r.max_constraint_violation})
     return rows
 
 
 def _record_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generator: str | None, envs: np.ndarray,
-                  first: int, limits: np.ndarray | None, provenance: dict[str, Any]) -> list[dict[str, Any]]:
-    """Plan without replaying: each plan's JSON record (under its own limits), for a robot."""
+                  first: int, limits: np.ndarray | None, provenance: dict[str, Any],
+                  constraints: list[dict[str, Any]] | None = None) -> list[dict[str, Any]]:
+    """Plan without replaying: each plan's JSON record (under its own limits and constraints), for a robot."""
     from judgeopt.formats.plan import plan_record
 
-    return [{"env_index": first + i, "method": r.method, "limits": lim,
-             "record": plan_record(r, problem.with_overrides(**lim), provenance)}
-            for i, env, lim, r in _solved(problem, methods, judge, generator, envs, limits)]
+    return [{"env_index": first + i, "method": r.method, "limits": lim, **({"constraints": con} if con else {}),
+             "record": plan_record(r, problem.with_overrides(**lim, **con), provenance)}
+            for i, env, lim, con, r in _solved(problem, methods, judge, generator, envs, limits, constraints)]
 
 
 def _round_envs(problem: Problem, seed: int, k: int, n: int) -> np.ndarray:
@@ -137,10 +155,31 @@ def _round_limits(cfg: RefineConfig, k: int) -> np.ndarray | None:
     return cfg.limit_ranges.sample(np.random.default_rng([cfg.seed, 7927, k]), cfg.n)
 
 
+def round_constraints(problem: Problem, cfg: RefineConfig, k: int, envs: np.ndarray | None = None,
+                      limits: np.ndarray | None = None) -> list[dict[str, Any]] | None:
+    """Round k's constraint set per environment (None without cfg.constraint_ranges): drawn in
+    environment order from a stream of their own (the environments and limits stay those of a
+    refinement without constraint sampling), each feasible for its environment at its limits
+    (judgeopt.planners.constraint_ranges.draw_constraints)."""
+    from judgeopt.planners.constraint_ranges import draw_constraints
+
+    if cfg.constraint_ranges is None:
+        return None
+    envs = _round_envs(problem, cfg.seed, k, cfg.n) if envs is None else envs
+    limits = _round_limits(cfg, k) if limits is None else limits
+    rng = np.random.default_rng([cfg.seed, 7933, k])
+    out = []
+    for i, e in enumerate(envs):
+        at = problem if limits is None else problem.with_overrides(**dict(zip(CONDITION_NAMES, map(float, limits[i]))))
+        out.append(draw_constraints(rng, at, cfg.constraint_ranges, [dict(zip(problem.env_names, map(float, e)))]))
+    return out
+
+
 def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generator: str | None, folder: Path,
                 n_jobs: int, scheduler: str | None, progress: bool) -> list[dict]:
     envs = _round_envs(problem, cfg.seed, k, cfg.n)
     limits = _round_limits(cfg, k)
+    constraints = round_constraints(problem, cfg, k, envs, limits)
     partial = folder / "partial"
     done, todo = [], []
     for first in range(0, cfg.n, cfg.chunk):
@@ -150,7 +189,8 @@ def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generat
         else:
             todo.append((path, first))
     work = [(path, _plan_chunk, (problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
-                                 None if limits is None else limits[f:f + cfg.chunk])) for path, f in todo]
+                                 None if limits is None else limits[f:f + cfg.chunk],
+                                 None if constraints is None else constraints[f:f + cfg.chunk])) for path, f in todo]
     new = run_chunks(work, lambda path, rows: atomic_write(path, json.dumps(rows)), n_jobs=n_jobs,
                      scheduler=scheduler, progress=progress, desc=f"round {k}: plan and replay")
     done += [r for rows in new.values() for r in rows]
@@ -165,12 +205,14 @@ def _write_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, genera
     from judgeopt.refine.robot import write_plans
 
     envs, limits = _round_envs(problem, cfg.seed, k, cfg.n), _round_limits(cfg, k)
+    constraints = round_constraints(problem, cfg, k, envs, limits)
     from judgeopt.files import sha256_file
     from judgeopt.judge.store import model_paths
 
     prov = plan_provenance(judge, sha256_file(model_paths(judge)[0]), generator, f"judgeopt refine round {k}")
     work = [(f, _record_chunk, (problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
-                                None if limits is None else limits[f:f + cfg.chunk], prov))
+                                None if limits is None else limits[f:f + cfg.chunk], prov,
+                                None if constraints is None else constraints[f:f + cfg.chunk]))
             for f in range(0, cfg.n, cfg.chunk)]
     done = run_chunks(work, lambda key, rows: None, n_jobs=n_jobs, scheduler=scheduler, progress=progress,
                       desc=f"round {k}: plan for the robot")
@@ -293,7 +335,10 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
                                                      # the demonstrations' and every round's environments (and
                                                      # limits) so far, and those of the judge it continues
                                                      "env_ranges": union(env_ranges_of(data), env_ranges_in(init_meta)),
-                                                     **({"limit_ranges": limits} if limits else {})}})
+                                                     **({"limit_ranges": limits} if limits else {}),
+                                                     # the [constraints] sets were drawn from (per environment)
+                                                     **({"constraint_ranges": cfg.constraint_ranges.to_dict()}
+                                                        if cfg.constraint_ranges is not None else {})}})
         judge = str(new_judge)
         if cfg.generator_epochs > 0:
             generator = str(_fine_tune_generator(problem, judge, generator, folder / "generator", cfg, k, progress))

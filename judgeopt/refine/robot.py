@@ -48,7 +48,7 @@ def write_plans(folder: Path, rows: list[dict[str, Any]], k: int, problem: Probl
         write_record(rec, folder / f"{pid}.json")
         export_record(rec, folder / f"{pid}.csv", "csv")
         entries.append({"id": pid, "method": r["method"], "env_index": r["env_index"], "environment": rec["environment"],
-                        "limits": r["limits"], "json": f"{pid}.json", "csv": f"{pid}.csv",
+                        "limits": r["limits"], **({"constraints": r["constraints"]} if r.get("constraints") else {}), "json": f"{pid}.json", "csv": f"{pid}.csv",
                         "predicted_success": rec["predicted_success"]})
     manifest = {"format": MANIFEST_FORMAT, "round": k, "task": problem.task, **models,
                 "outcomes": "DIR/<id>.csv per plan: the importer's CSV columns (t, "
