@@ -23,7 +23,7 @@ def check(problem: Problem, env: dict[str, float], rest_from: int | None = None)
         names = conflict(problem, env, rest_from)
         if names is not None:
             which = " and ".join(names) if len(names) > 1 else f"{names[0]} and the start state"
-            raise InfeasibleProblemError(f"infeasible: {which} cannot {'all' if len(names) > 2 else 'both'} hold "
+            raise InfeasibleProblemError(f"{which} cannot {'all' if len(names) > 2 else 'both'} hold "
                                          "(on the motion model from the start state); relax one", names)
 
 
