@@ -248,8 +248,9 @@ def markdown_sweep(summary: list[dict], title: str) -> str:
               "and 'unlikely' failure in simulation. Worst violation: the largest residual of any constraint (limits, "
               "terminal state, motion model, and [constraints]'s rate limits and window bounds) over the set's plans, "
               "in that constraint's units, with the constraint; held: plans whose every residual is at most "
-              f"{HELD_TOL:g}. The generator never saw [constraints]; the direct solve, warm-started from it, holds "
-              "them."]
+              f"{HELD_TOL:g}. The generator never saw [constraints]; the direct solve holds them (starting cold "
+              "where the generator's plan breaks them: repaired from it, the plan lands where the judge is over-"
+              "confident)."]
     return "\n".join(lines) + "\n"
 
 
