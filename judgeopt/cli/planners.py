@@ -417,7 +417,9 @@ def cmd_train_generator(args: argparse.Namespace) -> int:
         from judgeopt.planners.store import load_generator, matches
 
         init, imeta = load_generator(resolve(args.init, (".json",)))
-        if (imeta.get("conditioned") is not None) != (ranges is not None) or not matches(imeta, problem):
+        # fine-tuning may move the end (end_margin): the rest of the limits must be the init's
+        if (imeta.get("conditioned") is not None) != (ranges is not None) \
+                or not matches(imeta, problem.with_overrides(end_margin=0.0)):
             raise ProblemError(f"--init {args.init}: trained for other limits (or {'not ' if ranges else ''}"
                                "conditioned); fine-tune a generator made for this problem's limits")
     gen, history = train_generator(problem, loss_judge, tc=tc, conditioned=ranges, init=init)

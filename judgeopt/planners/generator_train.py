@@ -86,7 +86,11 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
     for i, end in enumerate(ends):  # a fixed end: a number or an environment variable
         if end == FREE:
             continue
-        target = env[:, pr.env_names.index(end)] if isinstance(end, str) else torch.full_like(q[:, -1, i], float(end))
+        if isinstance(end, str):  # the environment's value, end_margin past it within q_max (Problem.terminal_positions)
+            target = torch.clamp(env[:, pr.env_names.index(end)] + float(pr.vec("end_margin")[i]),
+                                 max=float(pr.vec("q_max")[i]))
+        else:
+            target = torch.full_like(q[:, -1, i], float(end))
         terminal = terminal + (q[:, -1, i] - target) ** 2
     acc = torch.diff(v, dim=1) / pr.dt
     smooth = (pr.acc_weight * pr.dt * (acc ** 2).sum((1, 2))

@@ -42,7 +42,7 @@ FREE = "free"
 #: state with the judge at p_target (planners/min_time.py)
 OBJECTIVES = ("target", "log_p", "min_time")
 #: fields holding one value per position axis (or one for all), and one per force channel
-AXIS_FIELDS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "q_end", "qdot_end")
+AXIS_FIELDS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "q_end", "qdot_end", "end_margin")
 FORCE_FIELDS = ("f_min", "f_max")
 
 
@@ -69,7 +69,7 @@ SECTIONS: dict[str, tuple[str, ...]] = {
     "horizon": ("steps", "dt"),
     "start": ("q0", "qdot0"),
     "limits": ("q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max"),
-    "terminal": ("q_end", "qdot_end"),
+    "terminal": ("q_end", "qdot_end", "end_margin"),
     "cost": ("acc_weight", "force_rate_weight"),
     "solver": ("objective", "p_target", "p_min", "max_iter", "tol", "pessimism", "trust_region", "replan_period",
                "replan_trigger"),
@@ -103,6 +103,8 @@ FIELD_HELP: dict[str, str] = {
     "f_max": "highest commanded force in N",
     "q_end": "end position in m, the name of the environment variable whose value it is, or free",
     "qdot_end": "end velocity in m/s",
+    "end_margin": "end this far (m) past the environment variable q_end names, within q_max: margin for what the "
+                  "judge cannot see (a stiffer mat, an object further than told); 0: at it",
     "P": "weight of the judge's log-probability (eq. 3)",
     "Q": "generator: weight of limit violations (eq. 4)",
     "R": "generator: weight of the terminal error (eq. 4)",
@@ -157,6 +159,9 @@ class Motion:
     f_max: float | list[float] = 22.5
     q_end: float | str | list[float | str] = field(default_factory=lambda: get_task(DEFAULT_TASK).default_q_end)
     qdot_end: float | list[float] = 0.0
+    # the plan ends this far past the position an environment variable gives (q_end = "y_obj"), capped at q_max:
+    # an open-loop scoop on a stiffer mat or at an object further than told still ends under it (docs/constraints.md)
+    end_margin: float | list[float] = 0.0
     # smoothing (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s): keeps both planners away from
     # bang-bang plans the controller cannot follow
     acc_weight: float = 1e-3
@@ -219,7 +224,7 @@ PARTS: dict[str, type] = {"motion": Motion, "solver": SolverOptions, "generator"
 PART_OF: dict[str, str] = {f.name: part for part, cls in PARTS.items() for f in dataclasses.fields(cls)}
 #: every field by name, in the order of the flat records (Problem.to_dict) written before the split
 FIELDS: tuple[str, ...] = ("name", "description", "task", "steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min",
-                           "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "environment", "world", "P", "Q", "R",
+                           "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "end_margin", "environment", "world", "P", "Q", "R",
                            "acc_weight", "force_rate_weight", "objective", "p_target", "p_min", "max_iter", "tol",
                            "replan_period", "replan_trigger", "judge", "ensemble", "pessimism", "trust_region",
                            "trust_model", "calibration", "generator_model", "a_max", "jerk_max", "fdot_max", "bounds",
@@ -334,6 +339,13 @@ class Problem:
         if not isinstance(self.generator_model, str):
             raise ProblemError(f"generator_model = {self.generator_model!r}{where} must be a model path such as "
                                "\"models/generator_paper_sim\" (or \"\" to let its metadata find one)")
+        margin = self._vec("end_margin", task)
+        if np.any(margin < 0):
+            raise ProblemError(f"end_margin = {self.end_margin}{where} must be >= 0 (m past the object)")
+        ends = self.q_end if isinstance(self.q_end, (list, tuple)) else [self.q_end] * n_axes
+        if any(m and not (isinstance(e, str) and e != FREE) for m, e in zip(margin, ends)):
+            raise ProblemError(f"end_margin = {self.end_margin}{where} applies to an end an environment variable gives "
+                               f"(q_end = {self.q_end!r}); move a numeric q_end itself, or set end_margin = 0")
         if self.objective == "min_time" and np.any(np.isnan(self.terminal_positions(
                 {k: 0.0 for k in self.environment}))):
             raise ProblemError(f"objective = min_time{where} needs a terminal position on every axis (q_end is "
@@ -394,7 +406,9 @@ class Problem:
     def terminal_positions(self, env: dict[str, float]) -> np.ndarray:
         """Per axis: the end position the plan must reach (nan: free)."""
         ends = self.q_end if isinstance(self.q_end, (list, tuple)) else [self.q_end] * self.n_axes
-        return np.array([np.nan if e == FREE else float(env[e]) if isinstance(e, str) else float(e) for e in ends])
+        margin, q_max = self.vec("end_margin"), self.vec("q_max")
+        return np.array([np.nan if e == FREE else min(float(env[e]) + margin[i], q_max[i]) if isinstance(e, str)
+                         else float(e) for i, e in enumerate(ends)])
 
     # -- the environment --------------------------------------------------------------
     @property
@@ -533,8 +547,11 @@ class Problem:
 
     def limits_key(self) -> dict[str, Any]:
         """Everything a trained generator depends on except the environment values."""
-        return {k: getattr(self, k) for k in ("steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max",
-                                               "f_min", "f_max", "q_end", "qdot_end")}
+        key = {k: getattr(self, k) for k in ("steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max",
+                                              "f_min", "f_max", "q_end", "qdot_end")}
+        if np.any(self.vec("end_margin")):  # a generator trained without the margin does not plan with it
+            key["end_margin"] = self.end_margin
+        return key
 
     def to_dict(self) -> dict[str, Any]:
         """Every field by name, as records and setting ids have held it since before the split
@@ -544,6 +561,8 @@ class Problem:
             del d["generator_model"]
         if not self.world:  # records of problems without one read as before
             del d["world"]
+        if not np.any(self.vec("end_margin")):  # records of problems without one read as before
+            del d["end_margin"]
         kept = describe(self.constraints)
         for k in SECTIONS["constraints"]:  # records of problems without constraints read as before
             if k not in kept:
