@@ -303,7 +303,6 @@ class DirectPlanner(Planner):
         def column(values: np.ndarray, rows: int, scale: float) -> np.ndarray:  # one block per axis
             return np.concatenate([np.full(rows, x / scale) for x in values])
 
-        free = np.full(pr.n_axes, np.inf)
         a_max = per_channel(pr.a_max, pr.n_axes, "a_max")
         lb = np.concatenate([column(pr.vec("q_min"), n, SCALE_Q), column(pr.vec("qdot_min"), n, SCALE_V),
                              column(-a_max, n, SCALE_A), column(pr.vec("f_min"), n + 1, SCALE_F)])
@@ -383,18 +382,17 @@ class DirectPlanner(Planner):
 
     def with_limits(self, problem: Problem) -> "DirectPlanner":
         """The same compiled solver for a problem that differs only in its position, velocity
-        and force limits (they are variable bounds): no rebuild, so re-planning under relaxed
-        or sampled limits costs one solve."""
-        same = {k: v for k, v in problem.to_dict().items() if k not in BOUND_FIELDS}
-        if same != {k: v for k, v in self.problem.to_dict().items() if k not in BOUND_FIELDS}:
-            if {k: v for k, v in same.items() if k != "joint_limit_scale"} == {
-                    k: v for k, v in self.problem.to_dict().items() if k not in BOUND_FIELDS and k != "joint_limit_scale"}:
-                if (problem.joint_limit_scale is None) != (self.problem.joint_limit_scale is None):  # rows come or go
-                    return DirectPlanner(problem, self.judge, self.cjudge, self.options, self.members, self.trust,
-                                         self.samples, self.case)
-            else:
-                raise ProblemError("with_limits: the problems differ in more than their limits; build a new "
-                                   "DirectPlanner")
+        and force limits and [constraints] (variable bounds and row bounds): no rebuild, so
+        re-planning under relaxed or sampled limits costs one solve (joint limits switched on or
+        off: a rebuild, their rows come or go)."""
+        def rest(p: Problem) -> dict:  # what the compiled solver is built for
+            return {k: v for k, v in p.to_dict().items() if k not in BOUND_FIELDS and k != "joint_limit_scale"}
+
+        if rest(problem) != rest(self.problem):
+            raise ProblemError("with_limits: the problems differ in more than their limits; build a new DirectPlanner")
+        if (problem.joint_limit_scale is None) != (self.problem.joint_limit_scale is None):  # joint rows come or go
+            return DirectPlanner(problem, self.judge, self.cjudge, self.options, self.members, self.trust,
+                                 self.samples, self.case)
         new = copy.copy(self)
         new.problem = problem
         new._bounds()
@@ -535,14 +533,10 @@ class DirectPlanner(Planner):
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
-        warm = "generator"
-        broken = self._broken(guess)
-        if broken:
-            warm = None
+        warm, broken = "generator", self._broken(guess)
         if guess is None or broken:
             guess, warm = cold_start(pr, env, self.judge, default_guess(pr, env), self._lbg[self._judge_rows][0])
-            if broken:
-                warm += f" (the generator's plan breaks {broken})"
+            warm += f" (the generator's plan breaks {broken})" if broken else ""
         fixed = [np.concatenate([judge_env(self.judge, e) for e in env_set]), pr.terminal_positions(env)[self._fixed]]
         x = self._pack(guess)
         target = self._lbg[self._judge_rows][0]
