@@ -126,8 +126,8 @@ def train_generator(problem: Problem, judge: Judge, config: GeneratorConfig | No
         wider = Generator(init.problem, init.config, conditioned)
         wider.net.load_state_dict(init.net.state_dict())
         gen = wider.train()
-    if init is not None:  # the loss weights asked for now (--P, --Q, --R), not the ones init was trained with
-        gen.problem = gen.problem.with_overrides(P=problem.P, Q=problem.Q, R=problem.R)
+    if init is not None:  # the loss weights and the end asked for now (--P, --Q, --R, end_margin), not init's
+        gen.problem = gen.problem.with_overrides(P=problem.P, Q=problem.Q, R=problem.R, end_margin=problem.end_margin)
     opt = torch.optim.Adam(gen.parameters(), lr=tc.lr)
     sched = torch.optim.lr_scheduler.LambdaLR(
         opt, lambda k: tc.lr_final + (1 - tc.lr_final) * 0.5 * (1 + np.cos(np.pi * min(k, tc.epochs) / tc.epochs)))

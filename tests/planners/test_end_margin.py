@@ -65,3 +65,24 @@ def test_a_margin_without_an_environment_end_or_below_zero_is_refused_in_one_lin
     with pytest.raises(ProblemError, match=words) as exc:
         PROBLEM.with_overrides(**overrides)
     assert "\n" not in str(exc.value)
+
+
+class LinearJudge(torch.nn.Module):
+    """A judge with a gradient and no parameters to train: logit 40 - |y_N - 0.3| (any plan is fine)."""
+
+    config = ConstantJudge().config
+
+    def forward(self, x: torch.Tensor, env: torch.Tensor) -> torch.Tensor:
+        return 40.0 - (x[:, -1, 0] - 0.3).abs()
+
+
+def test_fine_tuning_takes_the_new_problems_end_margin():
+    """A generator trained without a margin, fine-tuned for a problem with one, plans (and is
+    saved) for the margin: its problem's end is 0.1 past y_obj, its loss's terminal target too."""
+    from judgeopt.planners.generator_train import GeneratorTrainConfig, train_generator
+
+    init = Generator(PROBLEM)
+    gen, _ = train_generator(PROBLEM.with_overrides(end_margin=0.1), LinearJudge(),
+                             tc=GeneratorTrainConfig(epochs=1, batch=2, progress=False, threads=1), init=init)
+    assert gen.problem.end_margin == 0.1 and init.problem.end_margin == 0.0
+    assert gen.problem.terminal_positions({"y_obj": 0.2, "mu": 2.0})[0] == pytest.approx(0.3)
