@@ -32,6 +32,8 @@ _BOUND = re.compile(rf"^\s*(?P<name>[A-Za-z_]\w*)\s*:\s*(?P<lo>{_NUMBER})\s*:\s*
                     rf"(?:@\s*(?P<t0>{_NUMBER})\s*:\s*(?P<t1>{_NUMBER})\s*)?$", re.IGNORECASE)
 #: the rate limits: field -> (what it limits, unit per the channel's unit)
 RATE_LIMITS = {"a_max": "acceleration", "jerk_max": "jerk", "fdot_max": "force rate"}
+#: the residuals of the arm's joint limits (planners/joint_limits.py)
+JOINT_KEYS = ("joint_velocity", "joint_torque")
 
 
 class ConstraintError(UsageError, ValueError):
@@ -145,6 +147,11 @@ def validate(c: Constraints, channels: Sequence[Channel], steps: int, dt: float)
 
 
 # -- residuals ---------------------------------------------------------------------------
+def is_constraint_key(name: str) -> bool:
+    """Whether a residual's name is one of [constraints]' (not the paper's boxes or the model)."""
+    return name in RATE_LIMITS or name in JOINT_KEYS or name.startswith("bound ")
+
+
 def rates(plan: Plan) -> dict[str, np.ndarray]:
     """The plan's accelerations (N, axes), jerks (N - 1, axes) and force rates (N, forces)."""
     v, f = (plan.values[:, plan.columns(kind)] for kind in ("velocity", "force"))

@@ -159,7 +159,7 @@ class Motion:
     f_max: float | list[float] = 22.5
     q_end: float | str | list[float | str] = field(default_factory=lambda: get_task(DEFAULT_TASK).default_q_end)
     qdot_end: float | list[float] = 0.0
-    # the plan ends this far past the position an environment variable gives (q_end = "y_obj"), capped at q_max:
+    # the plan ends this far past the position an environment variable gives (a q_end naming one), capped at q_max:
     # an open-loop scoop on a stiffer mat or at an object further than told still ends under it (docs/constraints.md)
     end_margin: float | list[float] = 0.0
     # smoothing (acceleration in (m/s^2)^2 s, force rate in (N/s)^2 s): keeps both planners away from

@@ -134,3 +134,19 @@ def test_random_constraints_on_the_command_line(monkeypatch, capsys, tmp_path):
     assert "Held-out constraint sets at the limits of paper_sim" in out and out.count("| 0/1 |") == 2
     assert main(argv[:4] + ["--limits", "a_max=2", "--out", str(tmp_path / "x")]) == 2
     assert "--random-constraints" in capsys.readouterr().err
+
+
+def test_a_success_that_breaks_the_constraints_shows_no_scoop_is_possible_under_them():
+    """Environment 0: only the generator succeeded, breaking jerk_max by 12.5: no witness, so it
+    counts where none was found (and the direct solve's 'unlikely' there is right). Environment 1:
+    the generator's success held every constraint (3e-7 < HOLD_TOL): a witness."""
+    ls = parse_limit_set("a_max=3,jerk_max=40")
+    rows, _ = sweep_rows(PROBLEM, [ls], None, methods=("amortized", "direct"), baselines=False)
+    by = {r.method: r for r in rows}
+    failed = {**_planned(0, 0.0, "dynamics"), "simulated_success": False, "verdict": "unlikely",
+              "success_probability": 0.1}
+    results = {by["amortized"].key: [_planned(0, 12.5), _planned(1, 3e-7)],
+               by["direct"].key: [failed, {**failed, "env_index": 1}]}
+    s = {x["method"]: x for x in summarise_sweep([ls], rows, results, ("amortized", "direct"))}["direct"]
+    assert (s["feasible_found"], s["none_found"], s["unlikely_where_none_found_pct"]) == (1, 1, 100.0)
+    assert (s["success_where_feasible"], s["feasible_planned"]) == (0, 1)
