@@ -87,8 +87,9 @@ def generator_loss(gen: Generator, judge: Judge, env: torch.Tensor,
         if end == FREE:
             continue
         if isinstance(end, str):  # the environment's value, end_margin past it within q_max (Problem.terminal_positions)
-            target = torch.clamp(env[:, pr.env_names.index(end)] + float(pr.vec("end_margin")[i]),
-                                 max=float(pr.vec("q_max")[i]))
+            told = env[:, pr.env_names.index(end)]
+            room = torch.clamp(float(pr.vec("q_max")[i]) - told, min=0.0)
+            target = told + torch.minimum(room, torch.full_like(told, float(pr.vec("end_margin")[i])))
         else:
             target = torch.full_like(q[:, -1, i], float(end))
         terminal = terminal + (q[:, -1, i] - target) ** 2

@@ -407,8 +407,9 @@ class Problem:
         """Per axis: the end position the plan must reach (nan: free)."""
         ends = self.q_end if isinstance(self.q_end, (list, tuple)) else [self.q_end] * self.n_axes
         margin, q_max = self.vec("end_margin"), self.vec("q_max")
-        return np.array([np.nan if e == FREE else min(float(env[e]) + margin[i], q_max[i]) if isinstance(e, str)
-                         else float(e) for i, e in enumerate(ends)])
+        # the margin goes no further than q_max (an end already beyond it stays, to be reported)
+        return np.array([np.nan if e == FREE else float(env[e]) + min(margin[i], max(0.0, q_max[i] - float(env[e])))
+                         if isinstance(e, str) else float(e) for i, e in enumerate(ends)])
 
     # -- the environment --------------------------------------------------------------
     @property

@@ -86,3 +86,11 @@ def test_fine_tuning_takes_the_new_problems_end_margin():
                              tc=GeneratorTrainConfig(epochs=1, batch=2, progress=False, threads=1), init=init)
     assert gen.problem.end_margin == 0.1 and init.problem.end_margin == 0.0
     assert gen.problem.terminal_positions({"y_obj": 0.2, "mu": 2.0})[0] == pytest.approx(0.3)
+
+
+def test_the_margin_never_hides_an_end_beyond_q_max():
+    """An object told beyond q_max stays beyond it (feasible.check reports it); the margin only
+    stops at q_max."""
+    p = PROBLEM.with_overrides(end_margin=0.1)
+    assert p.terminal_positions({"y_obj": 0.5, "mu": 2.0})[0] == pytest.approx(0.5)
+    assert terminal(0.40, 0.5, 0.1) == pytest.approx(0.1 ** 2)  # the generator's target is y_obj itself
