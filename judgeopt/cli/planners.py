@@ -321,9 +321,11 @@ def cmd_solve(args: argparse.Namespace) -> int:
             for x in suggestions:
                 print(f"  {x.text()}")
             if args.suggest:
+                from judgeopt.planners.suggest import searched
+
                 print(f"  (searched by re-planning in {report.suggest_seconds:.1f} s)" if suggestions else
-                      "  no single limit relaxed within the demonstrations' range (f_max, q̇_max, f_min) makes a plan "
-                      "likely")
+                      f"  no single relaxation ({', '.join(searched(problem))}; each within the demonstrations' "
+                      "range or its reach) makes a plan likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
     return ExitCode.INFEASIBLE if infeasible else ExitCode.OK if verdict == "likely" else ExitCode.UNLIKELY
 

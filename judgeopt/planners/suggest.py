@@ -149,6 +149,12 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
     return sorted(found, key=lambda s: s.relative_change)
 
 
+def searched(problem: Problem) -> list[str]:
+    """What `suggest` relaxes for this problem, one at a time (for the message where none helps)."""
+    limits = relaxations(get_task(problem.task)) + constraint_relaxations(problem)
+    return [rx.name for rx in limits] + [f"without bound {b}" for b in problem.bounds]
+
+
 def _binds(problem: Problem, name: str, plan) -> str:
     """For the joint-limit scale: which joint's velocity or torque is nearest its scaled limit on
     the plan under the current limits (the one the relaxation is for)."""

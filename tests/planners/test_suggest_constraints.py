@@ -44,3 +44,11 @@ def test_a_suggestion_names_what_to_relax_by_how_much_and_what_binds():
     assert dropped.text().startswith("likely without bound f:0:9: p = 0.70")
     assert dropped.relative_change == math.inf  # after any suggestion that keeps the bound
     assert dropped.to_json()["value"] is None
+
+
+def test_the_message_where_nothing_helps_lists_every_relaxation_tried():
+    from judgeopt.planners.suggest import searched
+
+    assert searched(Problem()) == ["f_max", "qdot_max", "f_min"]
+    assert searched(Problem(fdot_max=20.0, bounds=["f:0:9"])) == ["f_max", "qdot_max", "f_min", "fdot_max",
+                                                                   "without bound f:0:9"]

@@ -101,7 +101,7 @@ def test_solve_exits_4_and_says_so_in_one_line_when_no_plan_is_likely(monkeypatc
     assert rc == 4
     verdict_lines = [line for line in text.splitlines() if line.startswith("judgeopt solve: no plan is likely")]
     assert len(verdict_lines) == 1 and "the plan to run: direct, p = " in verdict_lines[0]
-    assert ("no single limit relaxed" in text) == (suggest_flag == "--suggest")
+    assert ("no single relaxation (f_max, qdot_max, f_min;" in text) == (suggest_flag == "--suggest")
 
 
 def test_infeasible_stays_exit_3(capsys):
