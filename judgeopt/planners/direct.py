@@ -541,11 +541,12 @@ class DirectPlanner(Planner):
         if pr.constraints.is_set() and warm.startswith("best of") and self._target and not self._met(result):
             # the start the judge liked best fell short of the target: the min-jerk guess gets its own solve
             # (held-out constraint sets: near objects under an early force cap, where the task command the
-            # judge preferred led to p 0.35-0.96 and failures, and the min-jerk guess to p 0.98 and successes)
+            # judge preferred led to p 0.35-0.96 and failures, and the min-jerk guess to p 0.98 and successes;
+            # where no scoop was possible, retries short of the target reached p 0.52-0.89 and all failed)
             retry = self._solve_from(env, env_set, default_guess(pr, env),
                                      f"min-jerk guess (from the {warm.split(' (')[0]}: p {result.predicted_success:.2f})",
                                      t0)
-            if retry.predicted_success > result.predicted_success:
+            if self._met(retry):  # kept where it reaches the target: short of it from both starts, the first stands
                 retry.iterations = (retry.iterations or 0) + (result.iterations or 0)
                 result = retry
         return result
