@@ -12,6 +12,7 @@ the target. The judge still reads the whole horizon: the motion, then the rest.
 from __future__ import annotations
 
 import time
+
 from judgeopt.planners.base import Planner
 from judgeopt.planners.feasible import check
 from judgeopt.planners.problem import InfeasibleProblemError
@@ -23,7 +24,7 @@ REACHED_TOL = 1e-3
 
 
 def reached(result: PlanResult, p_target: float) -> bool:
-    """A candidate that holds every constraint and the target."""
+    """A candidate Ipopt solved (every constraint held) at the target."""
     return (result.plan is not None and result.status == "solved"
             and result.predicted_success is not None and result.predicted_success >= p_target - REACHED_TOL)
 
