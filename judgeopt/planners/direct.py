@@ -39,11 +39,10 @@ from judgeopt.judge.model import Judge, sigmoid
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
 from judgeopt.planners.base import BuildContext, Planner
-from judgeopt.planners.constraints import RATE_LIMITS, per_channel
-from judgeopt.planners.constraints import residuals as path_residuals
+from judgeopt.planners.constraints import RATE_LIMITS, is_constraint_key, per_channel
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion, load_trust_region
-from judgeopt.planners.result import HOLD_TOL, PlanResult, constraint_residuals, infeasible_result, joint_residuals
+from judgeopt.planners.result import HOLD_TOL, PlanResult, constraint_residuals, infeasible_result, meets_target
 from judgeopt.trajectory import Plan
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs
@@ -434,7 +433,7 @@ class DirectPlanner(Planner):
         new._lbx, new._ubx, new._lbg, new._ubg = lbx, ubx, lbg, ubg
         return new
 
-    def _broken(self, guess: Plan | None) -> str:
+    def _broken(self, guess: Plan | None, env: dict[str, float]) -> str:
         """Which of [constraints] a warm start breaks, and by how much ("": none, or no guess).
         Repaired, such a plan lands on the constraints' edge near the generator's motion, where
         the judge has seen nothing and is over-confident (held-out constraint sets: 62 of 80 plans
@@ -442,8 +441,8 @@ class DirectPlanner(Planner):
         cold instead unless DirectOptions.repair_guess."""
         if guess is None or self.options.repair_guess or not self.problem.constraints.is_set():
             return ""
-        res = {**path_residuals(self.problem.constraints, guess), **joint_residuals(self.problem, guess)}
-        over = {k: v for k, v in res.items() if v > HOLD_TOL}
+        over = {k: v for k, v in constraint_residuals(self.problem, guess, env).items()
+                if is_constraint_key(k) and v > HOLD_TOL}
         return ", ".join(f"{k} by {v:.3g}" for k, v in sorted(over.items(), key=lambda kv: -kv[1]))
 
     def details(self, result: PlanResult) -> list[str]:
@@ -533,7 +532,7 @@ class DirectPlanner(Planner):
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
-        warm, broken = "generator", self._broken(guess)
+        warm, broken = "generator", self._broken(guess, env)
         if guess is None or broken:
             guess, warm = cold_start(pr, env, self.judge, default_guess(pr, env), self._lbg[self._judge_rows][0])
             warm += f" (the generator's plan breaks {broken})" if broken else ""
@@ -553,7 +552,7 @@ class DirectPlanner(Planner):
 
     def _met(self, result: PlanResult) -> bool:
         """Whether a solve reached p_target (to its tolerance)."""
-        return result.predicted_success is not None and result.predicted_success >= self.problem.p_target - 1e-3
+        return meets_target(result, self.problem.p_target)
 
     def _solve_from(self, env: dict[str, float], env_set: list[dict[str, float]], guess: Plan, warm: str,
                     t0: float) -> PlanResult:

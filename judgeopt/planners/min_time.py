@@ -16,17 +16,12 @@ import time
 from judgeopt.planners.base import Planner
 from judgeopt.planners.feasible import check
 from judgeopt.planners.problem import InfeasibleProblemError
-from judgeopt.planners.result import PlanResult
+from judgeopt.planners.result import PlanResult, meets_target
 from judgeopt.trajectory import Plan
-
-#: how close to p_target (in probability) a candidate must come to count as reaching it
-REACHED_TOL = 1e-3
-
 
 def reached(result: PlanResult, p_target: float) -> bool:
     """A candidate Ipopt solved (every constraint held) at the target."""
-    return (result.plan is not None and result.status == "solved"
-            and result.predicted_success is not None and result.predicted_success >= p_target - REACHED_TOL)
+    return result.plan is not None and result.status == "solved" and meets_target(result, p_target)
 
 
 def earliest_linear(direct: Planner, env: dict[str, float]) -> int | None:

@@ -35,6 +35,15 @@ LEGEND = ("judge: the judge's own probability that the plan succeeds; success p:
           "learnt from and no calibration covers it; simulated: the plan replayed in the physics simulation")
 
 
+#: how close to p_target (in probability) a plan's judge must come to count as reaching it
+TARGET_TOL = 1e-3
+
+
+def meets_target(result: "PlanResult", p_target: float) -> bool:
+    """Whether a result's judge reached p_target (to TARGET_TOL)."""
+    return result.predicted_success is not None and result.predicted_success >= p_target - TARGET_TOL
+
+
 def constraint_residuals(problem: Problem, plan: Plan, env: dict[str, float]) -> dict[str, float]:
     """Worst violation of each constraint over all axes (>= 0; 0 when satisfied), in the
     constraint's units: the boxes, the terminal state, the model, and [constraints]'s."""

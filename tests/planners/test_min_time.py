@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from judgeopt.planners import min_time
-from judgeopt.planners.min_time import REACHED_TOL, earliest, earliest_linear, reached
+from judgeopt.planners.min_time import earliest, earliest_linear, reached
+from judgeopt.planners.result import TARGET_TOL as REACHED_TOL
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
 from judgeopt.tasks import get_task
