@@ -19,7 +19,7 @@ from judgeopt.formats.table_csv import table_text, write_table
 
 
 def demo_ids(ds: Dataset) -> list[str]:
-    """The demonstrations' names: those the importer kept (file:demo), else demo<index>."""
+    """The demonstrations' names: those the importer kept (file:demo), else `demo<index>`."""
     ids = ds.meta.get("demo_ids")
     if isinstance(ids, str):  # as a loaded file keeps it
         try:

@@ -97,7 +97,7 @@ class Bound:
 
 @dataclass(frozen=True)
 class Constraints:
-    """A problem's [constraints] (acados' path constraints): rate limits per position axis
+    """A problem's [constraints] (path constraints beyond the boxes): rate limits per position axis
     (a_max in m/s², jerk_max in m/s³) or force channel (fdot_max in N/s), one value for all or
     one each; window bounds as BOUND_FORMAT strings; the arm's joint limits scaled by
     joint_limit_scale (None: not held). None: no limit."""

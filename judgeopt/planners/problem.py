@@ -1,6 +1,6 @@
 """A planning problem: start state, limits, terminal state, horizon, environment, loss weights.
 
-Problems live in TOML files in their task's folder (judgeopt/tasks/<task>/problems/; a shipped
+Problems live in TOML files in their task's folder (`judgeopt/tasks/<task>/problems/`; a shipped
 file is found as `problems/<name>.toml` from anywhere, judgeopt.files.resolve). A file may name
 `base = "other.toml"` and change only some values: `paper_sim_slow.toml` is `paper_sim.toml`
 with q̇_max = 0.4. `base` is looked up next to the file, then as the CLI finds a name (a shipped
@@ -137,7 +137,7 @@ FIELD_HELP: dict[str, str] = {
 
 @dataclass(frozen=True)
 class Motion:
-    """What is planned (acados' model, constraints and cost): the task, horizon, start, limits,
+    """What is planned (the model, constraints and cost): the task, horizon, start, limits,
     terminal state, the smoothing cost both planners minimise, and the environment. Units: m,
     m/s, N, s; defaults are the paper's Table 3 (simulation).
 
@@ -173,7 +173,7 @@ class Motion:
 
 @dataclass(frozen=True)
 class SolverOptions:
-    """How the direct solve and the receding planner run (acados' solver options)."""
+    """How the direct solve and the receding planner run (judgeopt's solver options; the direct solve is Ipopt through CasADi)."""
 
     # "target" reaches p >= p_target with the least effort and the least change to its warm start (a
     # well-posed optimum, a few iterations; docs/planners.md); "log_p" maximises the judge, eq. (3): -P log y_judge
