@@ -11,8 +11,6 @@ from __future__ import annotations
 import contextlib
 from typing import Any, Callable, Iterator, Sequence
 
-from joblib import Parallel, delayed, parallel_config
-
 _CACHE: dict[str, Any] = {}
 
 
@@ -27,6 +25,8 @@ def worker_cache(key: str, build: Callable[[], Any]) -> Any:
 def backend(scheduler: str | None, n_jobs: int) -> Iterator[int]:
     """Local processes, or the workers of a Dask distributed cluster at `scheduler`; yields
     the number of workers."""
+    from joblib import parallel_config  # here, not at the top: the command line imports this module at start-up
+
     if scheduler is None:
         with parallel_config(backend="loky", n_jobs=n_jobs):
             yield n_jobs
@@ -73,6 +73,7 @@ def run_chunks(work: Sequence[tuple[Any, Callable, tuple]], save: Callable[[Any,
     out: dict[Any, Any] = {}
     if not work:
         return out
+    from joblib import Parallel, delayed
     from tqdm import tqdm
 
     size = (lambda k: sizes[k]) if sizes else (lambda k: 1)

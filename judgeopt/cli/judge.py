@@ -29,7 +29,7 @@ def cmd_train_judge(args: argparse.Namespace) -> int:
     import torch
 
     from judgeopt.data.dataset import DatasetError, concatenate, load
-    from judgeopt.judge.archs import DEFAULT_ARCH
+    from judgeopt.judge.arch_configs import DEFAULT_ARCH
     from judgeopt.judge.data_ranges import env_ranges_in, env_ranges_of, union
     from judgeopt.judge.evaluate import evaluate_judge, judge_inputs
     from judgeopt.judge.model import JudgeConfig, JudgeError
@@ -333,12 +333,12 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
                         "environment variables and input normalisation are kept")
     t.add_argument("--with-commands", action="store_true",
                    help="also learn each simulated demonstration from its command, the input planners give the judge")
-    from judgeopt.judge.archs import ARCHS, DEFAULT_ARCH, arch_fields
+    from judgeopt.judge.arch_configs import ARCH_CONFIGS, DEFAULT_ARCH, config_fields
     t.add_argument("--arch", metavar="NAME",
-                   help=f"network architecture: {', '.join(ARCHS)} (judgeopt/judge/archs/; default {DEFAULT_ARCH})")
+                   help=f"network architecture: {', '.join(ARCH_CONFIGS)} (judgeopt/judge/archs/; default {DEFAULT_ARCH})")
     t.add_argument("--set", action="append", metavar="FIELD=VALUE",
                    help="one of the architecture's fields (default: its dataclass's); "
-                   + "; ".join(f"{a}: {', '.join(arch_fields(a))}" for a in ARCHS))
+                   + "; ".join(f"{a}: {', '.join(config_fields(a))}" for a in ARCH_CONFIGS))
     t.add_argument("--lstm-units", type=positive, help="--set lstm_units=: units of each of the LSTM layers")
     t.add_argument("--fc-units", type=positive, help="--set fc_units=: units of the feed-forward layers")
     t.add_argument("--dropout", type=number, help="--set dropout=: dropout of the feed-forward layers")
@@ -352,7 +352,7 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     e.add_argument("--judge", default=DEFAULT_MODEL, metavar="STEM", help="judge model path without suffix")
     e.add_argument("--model", dest="judge", help=argparse.SUPPRESS)  # the name older scripts use
     e.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
-    from judgeopt.judge.evaluate import VIEWS
+    from judgeopt.judge.views import VIEWS
     e.add_argument("--view", choices=VIEWS, default=VIEWS[0],
                    help="score the judge on the measured trajectories (default) or on the commands, as a planner uses it")
     e.set_defaults(func=cmd_test_judge)
@@ -384,7 +384,7 @@ def add_ensemble_command(sub) -> None:
     e.add_argument("--k", type=positive, default=5, help="members")
     e.add_argument("--epochs", type=positive, default=20, help="epochs per member")
     e.add_argument("--no-bootstrap", action="store_true", help="members differ by seed only")
-    from judgeopt.judge.archs import ARCHS
+    from judgeopt.judge.arch_configs import ARCH_CONFIGS
 
-    e.add_argument("--arch", choices=tuple(ARCHS), default="lstm", help="each member's architecture (default lstm)")
+    e.add_argument("--arch", choices=tuple(ARCH_CONFIGS), default="lstm", help="each member's architecture (default lstm)")
     e.set_defaults(func=cmd_train_ensemble)

@@ -13,6 +13,7 @@ import numpy as np
 from judgeopt.data.dataset import Dataset
 from judgeopt.judge.model import Judge, select_env
 from judgeopt.judge.store import check_compatible
+from judgeopt.judge.views import VIEWS
 
 
 def classification_metrics(labels: np.ndarray, prob: np.ndarray, threshold: float = 0.5,
@@ -58,9 +59,6 @@ def expected_calibration_error(labels: np.ndarray, prob: np.ndarray, n_bins: int
     return float(ece)
 
 
-#: what the judge reads of a demonstration: the measured trajectory (the paper's judge) or the commanded
-#: one (what a planner hands the judge: its plan)
-VIEWS = ("response", "command")
 
 
 def judge_inputs(model: Judge, ds: Dataset, view: str = "response") -> tuple[np.ndarray, np.ndarray]:

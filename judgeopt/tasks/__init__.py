@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import functools
 import importlib
-from importlib.metadata import entry_points
 from typing import Callable
 
 from judgeopt.tasks.base import (Channel, EnvironmentRangeError, EnvVar, Outcome, Perturbation, Task, TaskError,
@@ -42,7 +41,10 @@ def unregister_task(name: str) -> None:
 @functools.cache
 def _entry_points() -> tuple[tuple[str, str], ...]:
     """Installed packages' tasks, read once per process: scanning every distribution's metadata
-    takes 20-30 ms, and the command line asks a dozen times while it builds its options."""
+    takes 20-30 ms, and the command line asks a dozen times while it builds its options (importlib.metadata
+    is imported here, not at start-up: a built-in or registered task is found without it)."""
+    from importlib.metadata import entry_points
+
     return tuple((ep.name, ep.value) for ep in entry_points(group="judgeopt.tasks"))
 
 
@@ -62,11 +64,13 @@ def get_task(name: str) -> Task:
     """The task called `name`; a one-line error naming the known ones otherwise."""
     if name in _LOADED:
         return _LOADED[name]
-    sources = _sources()
-    if name not in sources:
-        raise TaskError(f"unknown task {name!r}: known tasks are {', '.join(sorted(sources))} "
-                        "(`judgeopt tasks` lists them)")
-    src = sources[name]
+    src = _REGISTERED.get(name, BUILTIN.get(name))  # what _sources() would give these names, without the scan
+    if src is None:
+        sources = _sources()
+        if name not in sources:
+            raise TaskError(f"unknown task {name!r}: known tasks are {', '.join(sorted(sources))} "
+                            "(`judgeopt tasks` lists them)")
+        src = sources[name]
     if isinstance(src, str):
         module, _, cls = src.partition(":")
         task = getattr(importlib.import_module(module), cls)()

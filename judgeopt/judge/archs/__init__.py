@@ -5,23 +5,28 @@ base.py  what an architecture says about itself (Arch): its fields, its torch la
 lstm.py  the paper's LSTM (the default; judge files without an `arch` key are LSTMs)
 tcn.py   a small temporal convolution network
 
-A new architecture is one module here and its entry in ARCHS below.
+A new architecture is one module here, its Config dataclass in judgeopt/judge/arch_configs.py (which
+imports nothing heavy: the command line lists the fields at start-up) and its entry in ARCHS below.
 """
 
 from __future__ import annotations
 
 from dataclasses import fields
 
+from judgeopt.judge.arch_configs import ARCH_CONFIGS, DEFAULT_ARCH
 from judgeopt.judge.archs.base import Arch, FlatJudge, casadi_sigmoid, fc_head
 from judgeopt.judge.archs.lstm import LSTM
 from judgeopt.judge.archs.tcn import TCN
 from judgeopt.judge.errors import JudgeError
 
-DEFAULT_ARCH = "lstm"
 #: what every architecture shares in JudgeConfig (its field names must differ from these)
 SHARED_FIELDS = ("arch", "net", "env_names", "channels", "units", "horizon", "dt")
 
 ARCHS: dict[str, Arch] = {a.name: a for a in (LSTM(), TCN())}
+
+if {n: a.Config for n, a in ARCHS.items()} != ARCH_CONFIGS:  # the light list the command line reads must agree
+    raise TypeError(f"judgeopt/judge/arch_configs.py's ARCH_CONFIGS {sorted(ARCH_CONFIGS)} does not match ARCHS "
+                    f"{sorted(ARCHS)} (each architecture's Config lives there)")
 
 for _a in ARCHS.values():  # a clash would make a judge file ambiguous: caught on import
     _clash = {f.name for f in fields(_a.Config)} & set(SHARED_FIELDS)

@@ -6,33 +6,14 @@ directly (FusedLSTMJudge32); for the native and compiled CasADi backends an MX g
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import torch
 from torch import nn
 
+from judgeopt.judge.arch_configs import LSTMConfig
 from judgeopt.judge.archs.base import Arch, Flat32, casadi_sigmoid, fc_head
-from judgeopt.judge.errors import JudgeError
-
-
-@dataclass
-class LSTMConfig:
-    lstm_units: int = 100
-    lstm_layers: int = 2
-    fc_units: int = 102
-    fc_layers: int = 2
-    dropout: float = 0.3
-    #: dropout between the two LSTM layers (training only). The paper does not say where its
-    #: dropout 0.3 sits; applying it here too gained ~0.5 % validation accuracy (docs/judge.md)
-    lstm_dropout: float = 0.3
-
-    def __post_init__(self) -> None:
-        if self.lstm_units < 1 or self.lstm_layers < 1 or self.fc_units < 1 or self.fc_layers < 0:
-            raise JudgeError(f"layer sizes must be positive: {self}")
-        if not (0.0 <= self.dropout < 1.0 and 0.0 <= self.lstm_dropout < 1.0):
-            raise JudgeError(f"dropout {self.dropout} and lstm_dropout {self.lstm_dropout} must be in [0, 1)")
 
 
 class LSTM(Arch):

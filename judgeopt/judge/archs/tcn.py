@@ -11,34 +11,13 @@ l4casadi in float32 the convolutions are written as matrix products (MatmulTCN32
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import torch
 from torch import nn
 
+from judgeopt.judge.arch_configs import TCNConfig
 from judgeopt.judge.archs.base import Arch, Flat32, fc_head
-from judgeopt.judge.errors import JudgeError
-
-
-@dataclass
-class TCNConfig:
-    tcn_channels: int = 64
-    kernel: int = 3
-    #: dilations 1, 2, ..., 2^(levels - 1): the last step sees 1 + (kernel - 1)(2^levels - 1) samples
-    levels: int = 4
-    #: dropout of each convolution's output (training only); on data/train.h5 0.2 gained 1.1 points of
-    #: validation accuracy over none, which fits the training set perfectly by epoch 30 (docs/judge.md)
-    conv_dropout: float = 0.2
-    fc_units: int = 102
-    fc_layers: int = 2
-    dropout: float = 0.3
-
-    def __post_init__(self) -> None:
-        if self.tcn_channels < 1 or self.kernel < 1 or self.levels < 0 or self.fc_units < 1 or self.fc_layers < 0:
-            raise JudgeError(f"layer sizes must be positive: {self}")
-        if not (0.0 <= self.dropout < 1.0 and 0.0 <= self.conv_dropout < 1.0):
-            raise JudgeError(f"dropout {self.dropout} and conv_dropout {self.conv_dropout} must be in [0, 1)")
 
 
 class TCN(Arch):
