@@ -59,8 +59,6 @@ def expected_calibration_error(labels: np.ndarray, prob: np.ndarray, n_bins: int
     return float(ece)
 
 
-
-
 def judge_inputs(model: Judge, ds: Dataset, view: str = "response") -> tuple[np.ndarray, np.ndarray]:
     """(responses or commands, the judge's env columns) after checking the dataset fits the judge."""
     check_compatible(model.config, horizon=ds.horizon, dt=ds.dt, channels=ds.channels, env_names=ds.env_names)
