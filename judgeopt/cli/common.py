@@ -186,6 +186,47 @@ def command_line() -> str:
     return "judgeopt " + " ".join(shlex.quote(a) for a in argv)
 
 
+def plugins_given(argv: list[str] | None = None) -> list[str]:
+    """The --plugin MODULE values anywhere on the command line, read before the parser reaches
+    them (so that `--method NAME --plugin MODULE` finds NAME too)."""
+    args = argv if argv is not None else (_ARGV if _ARGV is not None else sys.argv[1:])
+    given = [b for a, b in zip(args, args[1:]) if a == "--plugin"]
+    return given + [a.partition("=")[2] for a in args if a.startswith("--plugin=")]
+
+
+class PlannerChoices:
+    """The choices of a --method(s) option, read when checked: the registered planners (those that
+    plan before execution, with `open_loop`) and `extra` (the groups). A name not registered yet
+    first imports the plugins (--plugin, $JUDGEOPT_PLUGINS), so `judgeopt --help` and a built-in's
+    run never import them."""
+
+    def __init__(self, extra: tuple[str, ...] = (), open_loop: bool = False):
+        self.extra, self.open_loop = extra, open_loop
+
+    def names(self) -> tuple[str, ...]:
+        from judgeopt.planners.base import planner_names
+
+        return (*planner_names(self.open_loop), *self.extra)
+
+    def __contains__(self, name: object) -> bool:
+        if name in self.names():
+            return True
+        from judgeopt.planners.base import load_plugins
+
+        try:
+            load_plugins(plugins_given())
+        except JudgeoptError as exc:  # raised inside the parser: said in one line here, as its own errors are
+            print_error("judgeopt", str(exc), exc.exit_code)
+            sys.exit(exc.exit_code)
+        return name in self.names()
+
+    def __iter__(self):
+        return iter(self.names())
+
+    def __len__(self) -> int:
+        return len(self.names())
+
+
 def finite(text: str) -> float:
     """A number, never nan or inf (a ValueError, as float's, so each option's message holds)."""
     value = float(text)

@@ -384,8 +384,9 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
+    from judgeopt.cli.common import PlannerChoices
     from judgeopt.cli.planners import add_limit_range_arguments
-    from judgeopt.planners.base import default_planners, planner_names
+    from judgeopt.planners.base import default_planners
 
     e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
@@ -433,7 +434,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--n", type=positive, default=100, help="environments per row")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
-    e.add_argument("--methods", nargs="+", choices=planner_names(),
+    e.add_argument("--methods", nargs="+", choices=PlannerChoices(),
                    help="planners to include (default all of the table's)")
     e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
     e.add_argument("--judge", metavar="STEM", help="run every planner row against this judge instead (rows renamed)")
@@ -457,7 +458,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "are kept unless --replace (the shipped one is models/calibration_default.json)")
     c.add_argument("--min-n", type=positive, default=50, help="fewest outcomes a setting needs")
     c.add_argument("--replace", action="store_true", help="drop settings already in --out instead of keeping them")
-    c.add_argument("--methods", nargs="+", choices=planner_names(),
+    c.add_argument("--methods", nargs="+", choices=PlannerChoices(),
                    help="fit only these planners' settings (default: every planner in the folders); a planner left "
                    "out reports the judge's own probability")
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "

@@ -189,7 +189,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
     problem = problem_from_args(args)
     env = problem.nominal_env()
     told = session.simulated_world(problem, _assignments(args.simulate_env))  # checked before any solver runs
-    from judgeopt.planners.base import REGISTRY
+    from judgeopt.planners.base import REGISTRY, load_plugins
+
+    load_plugins(args.plugin or ())  # their planners join the groups (--method all) too
 
     spec = REGISTRY.get(args.method)
     if spec is not None and spec.closed_loop and not args.simulate:
@@ -475,13 +477,18 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        "judge; show each plan's success probability and verdict (and with --simulate, the simulated outcome). "
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
     add_problem_arguments(s)
-    from judgeopt.planners.base import GROUP_ALIASES, GROUPS, REGISTRY, WARM_STARTS, default_planners
+    from judgeopt.cli.common import PlannerChoices
+    from judgeopt.planners.base import GROUP_ALIASES, GROUPS, PLUGINS_ENV, REGISTRY, WARM_STARTS, default_planners
 
     each = "; ".join(f"{n}: {s.description}" for n, s in REGISTRY.items())
-    s.add_argument("--method", choices=(*REGISTRY, *GROUPS, *GROUP_ALIASES), default="default",
+    s.add_argument("--method", choices=PlannerChoices(extra=(*GROUPS, *GROUP_ALIASES)), default="default",
                    help=(f"default (the default): {' and '.join(default_planners())}; all: every planner; or one: "
-                         f"{each} (add your own with judgeopt.planners.base.register); both: the older name of "
-                         "default").replace("%", "%%"))
+                         f"{each}; or a plugin's (--plugin); both: the older name of default").replace("%", "%%"))
+    s.add_argument("--plugin", action="append", metavar="MODULE",
+                   help=f"import MODULE first (a module name, found on the Python path or in the current folder): its "
+                   f"judgeopt.planners.base.register(...) lines add --method choices; repeatable; ${PLUGINS_ENV} "
+                   "(comma-separated modules) names plugins for every command that plans (evaluate, calibrate and "
+                   "refine too)")
     s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",
                    help=f"simulate in a world that differs from the one planned for (e.g. {example_assignment()}: "
                    "a value other than the planners were told); repeatable (default: the world planned for)")

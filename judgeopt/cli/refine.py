@@ -114,10 +114,10 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     add_problem_arguments(r)
     r.add_argument("--rounds", type=positive, default=3, help="rounds of plan, replay, fine-tune")
     r.add_argument("--n", type=int, default=150, help="environments per round")
-    from judgeopt.planners.base import planner_names
+    from judgeopt.cli.common import PlannerChoices
     from judgeopt.refine.loop import judge_only_planners
 
-    r.add_argument("--methods", nargs="+", choices=planner_names(open_loop=True),
+    r.add_argument("--methods", nargs="+", choices=PlannerChoices(open_loop=True),
                    help="planners whose plans are replayed and added (default: "
                    f"{' and '.join(judge_only_planners())}, the default ones that need no generator)")
     r.add_argument("--train", default="data/train.h5", metavar="FILE", help="the demonstrations the judge was trained on")

@@ -10,17 +10,26 @@ way: `PlannerSpec.make(context)` calls the class's `build(context)`. A planner t
 simulator (a `ClosedLoopPlanner`, e.g. the receding planner) plans while its plan is executed: it
 runs after the others are replayed, from their results.
 
+A planner of one's own reaches every consumer three ways: its module calls `register` when it is
+imported (`judgeopt solve --plugin MODULE`, or MODULE in $JUDGEOPT_PLUGINS: `load_plugins`), or an
+installed package declares it (`register_installed`). Plugins are imported at run time, when a planner
+not registered yet is asked for, never to build the parser.
+
 Light to import: the command line reads the names at start-up (a class given as "module:Class"
 is imported when the planner is first built).
 """
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import os
+import sys
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, ClassVar, Iterable
+from typing import TYPE_CHECKING, Any, ClassVar, Iterable, Iterator
 
+from judgeopt.errors import JudgeoptError
 from judgeopt.planners.problem import ProblemError
 
 if TYPE_CHECKING:
@@ -218,11 +227,66 @@ def register_installed(found: Iterable[Any] | None = None) -> list[str]:
     return added
 
 
+#: modules whose import registers planners, comma-separated (`JUDGEOPT_PLUGINS=mylab.planners,other`):
+#: imported by `load_plugins`, when a planner not registered yet is asked for and by `judgeopt solve`
+PLUGINS_ENV = "JUDGEOPT_PLUGINS"
+
+
+def plugin_modules(given: Iterable[str] = ()) -> list[str]:
+    """`given`, then the modules $JUDGEOPT_PLUGINS names, each once."""
+    named = [*given, *os.environ.get(PLUGINS_ENV, "").split(",")]
+    return list(dict.fromkeys(m.strip() for m in named if m.strip()))
+
+
+@contextlib.contextmanager
+def _current_folder_searched() -> Iterator[None]:
+    """The current folder on the import path, last, as `python -m` has it (the `judgeopt` script does not)."""
+    here = os.getcwd()
+    added = here not in sys.path and "" not in sys.path
+    if added:
+        sys.path.append(here)
+    try:
+        yield
+    finally:
+        if added and here in sys.path:
+            sys.path.remove(here)
+
+
+def load_plugins(modules: Iterable[str] = ()) -> list[str]:
+    """Import `modules` and those $JUDGEOPT_PLUGINS names, so that their `register(...)` lines run
+    (each once: Python imports a module once); the planner names they added. The current folder is
+    searched too. A module that does not import, or whose planner is refused, is a one-line error
+    naming it."""
+    before = set(REGISTRY)
+    for module in plugin_modules(modules):
+        try:
+            with _current_folder_searched():
+                importlib.import_module(module)
+        except JudgeoptError as exc:  # its register(...) refused (a name taken, an entry incomplete)
+            raise ProblemError(f"plugin {module}: {exc}") from None
+        except Exception as exc:  # noqa: BLE001 -- the user's module's import error, said in one line
+            said = str(exc).splitlines()[0] if str(exc) else ""
+            raise ProblemError(f"plugin {module!r} does not import ({type(exc).__name__}: {said}); give a module on "
+                               "the Python path or in the current folder whose import registers its planners "
+                               "(judgeopt.planners.base.register)") from None
+    return [n for n in REGISTRY if n not in before]
+
+
+def unknown(names: Iterable[str]) -> list[str]:
+    """Those of `names` no planner is registered as, once the plugins are imported (only where
+    one is missing: a worker process finds its parent's $JUDGEOPT_PLUGINS planners this way)."""
+    names = list(names)
+    if any(n not in REGISTRY for n in names):
+        load_plugins()
+    return [n for n in names if n not in REGISTRY]
+
+
 def spec_of(name: str) -> PlannerSpec:
-    """The registry entry of `name`; a one-line error naming the registered ones otherwise."""
-    if name not in REGISTRY:
+    """The registry entry of `name` (a plugin's imported where needed); a one-line error naming the
+    registered ones otherwise."""
+    if unknown([name]):
         raise ProblemError(f"unknown planner {name!r}; choose from {', '.join(REGISTRY)} (or register it: "
-                           "judgeopt.planners.base.register)")
+                           f"judgeopt.planners.base.register, in a module given to --plugin or ${PLUGINS_ENV})")
     return REGISTRY[name]
 
 

@@ -22,7 +22,7 @@ import numpy as np
 from judgeopt.files import resolve
 from judgeopt.judge.model import Judge
 from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_planners, planner_names, spec_of,
-                                    to_build, with_uses)
+                                    to_build, unknown, with_uses)
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.trajectory import PlanError
@@ -132,7 +132,7 @@ class Planners:
         from judgeopt.planners.limits import coverage_notes
 
         methods = tuple(default_planners() if methods is None else methods)
-        bad = [m for m in methods if m not in planner_names()]
+        bad = unknown(methods)  # a plugin's planner imported where named
         if bad or not methods:
             raise ProblemError(f"unknown method(s) {bad}; choose from {list(planner_names())}")
         methods = with_uses(methods)
@@ -295,9 +295,9 @@ class Planners:
                 key = (m, len(env_set), case)
                 if key not in self.for_sets:  # built once per size and case
                     self.for_sets[key] = planner.for_env_set(len(env_set), case)
-                r = self.for_sets[key].solve(env, guess=start, env_set=env_set)
+                r = answer(m, self.for_sets[key], self.for_sets[key].solve(env, guess=start, env_set=env_set))
             else:
-                r = planner.solve(env, guess=start)
+                r = answer(m, planner, planner.solve(env, guess=start))
             plans[m] = r.plan
             if m in self.methods:
                 results.append(self._annotate(r, env))
@@ -314,7 +314,8 @@ class Planners:
                     r.simulated_success, r.response = bool(out.success), np.asarray(out.response, dtype=float)
                     r.info.update({f"sim_{k}": v for k, v in out.details.items() if isinstance(v, (bool, int, float))})
             for m in closed:  # planning while executing, from the open-loop results
-                results.append(self._annotate(self.built[m].run(simulator, results, env, world), env))
+                planner = self.built[m]
+                results.append(self._annotate(answer(m, planner, planner.run(simulator, results, env, world), "run"), env))
         return results
 
     def _annotate(self, r: PlanResult, env: dict[str, float]) -> PlanResult:
@@ -332,3 +333,17 @@ class Planners:
         if outside:
             r.info["outside_judge_data"] = outside
         return assess(r)
+
+
+def answer(name: str, planner: Planner, result: Any, call: str = "solve") -> PlanResult:
+    """`result`, what the planner registered as `name` returned, where it is a PlanResult of that
+    name; else a one-line error saying what `solve` must return (a planner of one's own that
+    returned None would fail later, far from its cause)."""
+    where = f"planner {name!r}: {type(planner).__name__}.{call}"
+    if not isinstance(result, PlanResult):
+        raise ProblemError(f"{where} returned {type(result).__name__}; it must return a PlanResult, e.g. "
+                           "judgeopt.planners.toolkit.plan_result(self, env, plan, started)")
+    if result.method != name:
+        raise ProblemError(f"{where} returned a result of method {result.method!r}; its method must be the registered "
+                           f"name {name!r} (set the class's `method = {name!r}`)")
+    return result
