@@ -54,10 +54,11 @@ def test_csv_columns_units_sign_and_the_offset_after_the_scale(tmp_path):
         np.testing.assert_allclose(x[inside, 1], 0.05, atol=1e-6)  # derived from y, in m/s
         np.testing.assert_allclose(x[inside, 2], 3 + 2 * TK[inside], atol=1e-9)  # sign turned
         np.testing.assert_allclose(x[~inside, 0], 0.1, atol=1e-9)
-    # unmapped, the file's own names are looked for, and the message says which to map
+    # unmapped, the file's own names are looked for, and the message says which to map, and to which
+    # of the header's columns where one is named alike (the mapping above)
     ds, errors = import_demos([path], spec)
     assert ds is None and "missing column(s) ['t', 'y', 'f', 'label', 'y_obj']" in errors[0]
-    assert errors[0].endswith("map them with --columns t=COLUMN,y=COLUMN,f=COLUMN,label=COLUMN, and for the "
+    assert errors[0].endswith("map them with --columns t=stamp_ms,y=pos_mm,f=fz,label=outcome, and for the "
                               "environment: leave it out with --env-names mu, give it with --env y_obj=VALUE or map a "
                               "column with --columns y_obj=COLUMN")
 

@@ -22,6 +22,7 @@ it, the header being row 1) and column.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Mapping, Sequence
@@ -77,20 +78,59 @@ def _read(path: Path) -> tuple[list[str], list[list[str]]]:
         raise ImportError_(str(exc)) from None
 
 
+#: what a column of each kind is often called instead (first word of its header, any case): the
+#: column --columns is suggested to map (time, a force, a position, a velocity, the outcome)
+SYNONYMS = {"t": ("time", "timestamp", "stamp", "times", "seconds", "sec"),
+            "force": ("force", "fz", "fy", "fx", "wrench", "load"), "position": ("pos", "position"),
+            "velocity": ("vel", "velocity", "speed"), "label": LABEL_COLUMNS}
+
+
+def _looks_like_labels(header: list[str], spec: ImportSpec, options: CsvOptions) -> bool:
+    """A labels file (recording, outcome) rather than a recording: a recording column and an outcome
+    column, and neither time stamps nor any channel (a recording missing one column is no labels file)."""
+    lower = {c.strip().lower() for c in header}
+    samples = ("t", *spec.names("position", "velocity", "force"))
+    return bool(lower & set(FILE_COLUMNS)) and bool(lower & set(LABEL_COLUMNS)) and not any(
+        options.column(n) in header for n in samples)
+
+
+def _similar(name: str, kind: str, header: list[str], taken: set[str]) -> str | None:
+    """The one header column that is likely `name` under another name (`force` or `fz_N` for f,
+    `time` for t, `F` for f), or None where there is none or more than one."""
+    words = {c: [w for w in re.split(r"[^0-9a-z]+", c.strip().lower()) if w] for c in header if c not in taken}
+    same = [c for c, w in words.items() if c.strip().lower() == name.lower()]
+    if same:
+        return same[0] if len(same) == 1 else None
+    alike = [c for c, w in words.items() if w and (w[0] == name.lower() or w[0] in SYNONYMS.get(kind, ()))]
+    return alike[0] if len(alike) == 1 else None
+
+
+#: the placeholder a fix shows where no column of the header looks like the one missing
+COLUMN = "COLUMN"
+
+
 def _missing(path: Path, header: list[str], spec: ImportSpec, options: CsvOptions) -> None:
     """Refuse a file without a column it needs, with the fix: a labels file is passed with --labels;
-    a channel is mapped with --columns; an environment value is left out, given or mapped."""
+    a channel is mapped with --columns (to the header's column of a similar name, where there is
+    one); an environment value is left out, given or mapped."""
     missing = [c for c in required(spec) if options.column(c) not in header]
     if not missing:
         return
-    if any(c.strip().lower() in FILE_COLUMNS for c in header) and any(
-            c.strip().lower() in LABEL_COLUMNS for c in header):
+    if _looks_like_labels(header, spec, options):
         raise ImportError_(f"{path}: a labels file, not a recording; pass it with --labels {path}")
     named = [f"{c}={options.column(c)}" if c in options.columns else c for c in missing]
     env = [c for c in missing if c in spec.env_names]
     channels = [c for c in missing if c not in env]
+    kinds = {"t": "t", "label": "label", **{c.name: c.kind for c in spec.channels}}
+    known = ("demo_id", "label", "t", *spec.names("position", "velocity", "force"), *spec.env_names)
+    taken = {options.column(n) for n in known if options.column(n) in header}
+    suggested = {}
+    for c in channels:
+        col = _similar(c, kinds.get(c, ""), header, taken | set(suggested.values()))
+        if col is not None:
+            suggested[c] = col
     fixes = [f"map {'it' if len(channels) == 1 else 'them'} with --columns "
-             f"{','.join(f'{c}=COLUMN' for c in channels)}"] if channels else []
+             f"{','.join(f'{c}={suggested.get(c, COLUMN)}' for c in channels)}"] if channels else []
     if env:
         fixes.append("for the environment: " * bool(channels) + env_fix(
             spec, env, f"map {'a column' if len(env) == 1 else 'columns'} with --columns "
