@@ -25,3 +25,33 @@ def min_jerk_plan(y0: float, y1: float, t_move: float, force: float, horizon: in
     y = y0 + (y1 - y0) * (10 * s**3 - 15 * s**4 + 6 * s**5)
     yd = (y1 - y0) * (30 * s**2 - 60 * s**3 + 30 * s**4) / t_move * (t <= t_move)
     return scoop_plan(dt, y, yd, np.full(horizon + 1, force))
+
+
+@pytest.fixture
+def module_copy(tmp_path, monkeypatch):
+    """copy(module, old=None, new=None): `module`'s source as a new module of its own (a file in
+    tmp_path, registered in sys.modules so inspect.getsource reads it), with `old` replaced by
+    `new` where given (it must occur exactly once). Why: the cache-key tests make a real edit to
+    the code that generates a library without touching the package."""
+    import importlib.util
+    import inspect
+    import itertools
+    import sys
+
+    counter = itertools.count()
+
+    def copy(module, old=None, new=None):
+        text = inspect.getsource(module)
+        if old is not None:
+            assert text.count(old) == 1, f"{old!r} is not in {module.__name__} exactly once"
+            text = text.replace(old, new)
+        name = f"_copy{next(counter)}_{module.__name__.replace('.', '_')}"
+        path = tmp_path / f"{name}.py"
+        path.write_text(text)
+        spec = importlib.util.spec_from_file_location(name, path)
+        mod = importlib.util.module_from_spec(spec)
+        monkeypatch.setitem(sys.modules, name, mod)
+        spec.loader.exec_module(mod)
+        return mod
+
+    return copy

@@ -40,11 +40,13 @@ the LSTM); l4casadi, l4casadi32 and the torch callbacks take any architecture (b
 from __future__ import annotations
 
 import hashlib
+import importlib.metadata
 import importlib.util
 import json
 import logging
 import os
 import shutil
+import sys
 import tempfile
 import time
 import warnings
@@ -57,7 +59,7 @@ import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.cbuild import CompileError, compiled_library
+from judgeopt.cbuild import CompileError, compiled_library, source_digest
 from judgeopt.errors import Missing
 from judgeopt.files import publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
@@ -256,7 +258,7 @@ def _native_function(judge: Judge, name: str) -> cs.Function:
 def _compiled_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Path]:
     """Generate C for the graph plus its reverse-mode and Jacobian functions (named so that
     casadi.external finds them: adj1_<name>, jac_<name>) and compile it once per model."""
-    key = _cache_key(judge, "compiled", cs.__version__)
+    key = _cache_key(judge, "compiled")
     name = f"judge_c_{key}"
     where = root / "compiled" / key
     fn = _native_function(judge, name)
@@ -280,15 +282,15 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
     except ImportError as exc:  # pragma: no cover - depends on the installation
         raise CasadiBuildError(f"the 'l4casadi' backend needs l4casadi (pip install 'judgeopt[l4casadi]', or "
                                f"scripts/setup.sh); or choose --casadi-backend native ({exc})") from exc
-    version = getattr(l4casadi, "__version__", "?")
-    key = _cache_key(judge, "l4casadi", f"{version}|{torch.__version__}|split{_SPLIT_BITS}")
+    version = _version("l4casadi")
+    model = _flat_model(judge, "l4casadi")
+    key = _cache_key(judge, "l4casadi", model)
     name = f"judge_l4c_{key}"
     where = root / "l4casadi" / key
     lib = where / f"lib{name}.so"
     if (where / "complete.json").exists() and lib.exists():
         return cs.external(name, str(lib)), True, where
     log.info("building the judge library (once per judge, about 15 s; cached in %s)", where)
-    model = _SplitInput(judge)
     tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
     try:
         with warnings.catch_warnings():
@@ -310,14 +312,6 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
 
 
 # -- l4casadi, float32 ------------------------------------------------------------------------
-#: what the l4casadi32 build generates, part of its cache key: the value and the reverse-mode
-#: derivative (adj1) only. The direct solve differentiates the judge by cs.gradient (one reverse
-#: sweep per judge row), and counted over its solves CasADi asks the judge's function for reverse(1)
-#: and never for its Jacobian (docs/judge.md); no Hessian traces (Ipopt's judge curvature is left
-#: out or approximated). cs.jacobian of the function still works, from adj1 sweeps.
-_L4C32_TRACES = "value+adj1|v1"
-
-
 def _l4casadi32_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Path]:
     """l4casadi of the architecture's float32 flat module (Arch.flat_module32; for the LSTM
     oneDNN's fused layer op) on inputs normalised in CasADi, value and adj1 traces only,
@@ -327,13 +321,13 @@ def _l4casadi32_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, P
         import l4casadi
     except ImportError as exc:
         raise CasadiBuildError(f"l4casadi is not installed ({exc})") from None
-    version = getattr(l4casadi, "__version__", "?")
+    version = _version("l4casadi")
     try:
-        model = _identity_normalization(judge.config.spec.flat_module32(judge)).eval()
+        model = _flat_model(judge, "l4casadi32")
     except Exception as exc:
         raise CasadiBuildError(f"no float32 module for l4casadi: {_one_line(exc)}") from None
-    module = f"{type(model).__module__}.{type(model).__qualname__}"  # its formulation is part of the key
-    key = _cache_key(judge, "l4casadi32", f"{version}|{torch.__version__}|float32|{_L4C32_TRACES}|{module}")
+    module = f"{type(model).__module__}.{type(model).__qualname__}"
+    key = _cache_key(judge, "l4casadi32", model)
     name = f"judge_l4c32_{key}"
     where = root / "l4casadi32" / key
     lib = where / f"lib{name}.so"
@@ -345,7 +339,7 @@ def _l4casadi32_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, P
         try:
             _build_l4casadi32(l4casadi, model, name, tmp, where, _n_traj(judge) + judge.config.n_env)
             (tmp / "complete.json").write_text(json.dumps({"backend": "l4casadi32", "l4casadi": version,
-                                                           "torch": torch.__version__, "traces": _L4C32_TRACES,
+                                                           "torch": torch.__version__, "traces": "value+adj1",
                                                            "module": module}))
             publish_dir(tmp, where)
         finally:
@@ -365,7 +359,13 @@ def _one_line(exc: BaseException) -> str:
 
 
 def _build_l4casadi32(l4casadi: Any, model: nn.Module, name: str, tmp: Path, where: Path, n_in: int) -> None:
-    """Trace, check and compile into `tmp` (the library will look for its traces in `where`)."""
+    """Trace, check and compile into `tmp` (the library will look for its traces in `where`).
+
+    Only the value and the reverse-mode derivative (adj1) are traced. The direct solve
+    differentiates the judge by cs.gradient (one reverse sweep per judge row), and counted over its
+    solves CasADi asks the judge's function for reverse(1) and never for its Jacobian
+    (docs/judge.md); no Hessian traces (Ipopt's judge curvature is left out or approximated).
+    cs.jacobian of the function still works, from adj1 sweeps."""
     from torch.fx.experimental.proxy_tensor import make_fx
 
     class _L4C32(l4casadi.L4CasADi):
@@ -394,7 +394,7 @@ def _build_l4casadi32(l4casadi: Any, model: nn.Module, name: str, tmp: Path, whe
             return ok
 
     if not hasattr(l4casadi.L4CasADi, "_trace_adj1_model"):
-        raise CasadiBuildError(f"l4casadi {getattr(l4casadi, '__version__', '?')} has no adjoint trace hook "
+        raise CasadiBuildError(f"l4casadi {_version('l4casadi')} has no adjoint trace hook "
                                "(_trace_adj1_model); l4casadi32 was written for l4casadi 2.0")
     try:
         with warnings.catch_warnings():
@@ -520,8 +520,50 @@ def _identity_normalization(model: nn.Module) -> nn.Module:
     return model
 
 
-def _cache_key(judge: Judge, backend: str, versions: str) -> str:
-    return hashlib.sha256(f"{model_hash(judge)}|{backend}|{versions}".encode()).hexdigest()[:20]
+def _flat_model(judge: Judge, backend: str) -> nn.Module:
+    """The torch module l4casadi traces for `backend` ("l4casadi" or "l4casadi32"): the float64 flat
+    module on split inputs, or the architecture's float32 one; CasADi normalises for both."""
+    if backend == "l4casadi32":
+        return _identity_normalization(judge.config.spec.flat_module32(judge)).eval()
+    return _SplitInput(judge)
+
+
+def _version(dist: str) -> str:
+    """An installed distribution's version, "?" where it is not installed (l4casadi 2.0 has no
+    __version__ attribute, so the attribute alone keyed every l4casadi version alike)."""
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return "?"
+
+
+def _generating_code(judge: Judge, backend: str, model: nn.Module | None = None) -> list[object]:
+    """What generates `backend`'s library for `judge`: this module's functions and classes that
+    build or trace it; the modules of the judge's architecture class and its bases (flat_module,
+    flat_module32, native_logit and what they call); for l4casadi the modules of the traced
+    `model`'s own classes (the Judge that a generic flat module wraps; torch's own classes are
+    keyed by torch's version). Looked up at each call, so the names here are the ones in use."""
+    own: list[object] = {
+        "compiled": [_compiled_function, _native_function, compiled_library],
+        "l4casadi": [_l4casadi_function, _SplitInput, _identity_normalization],
+        "l4casadi32": [_l4casadi32_function, _build_l4casadi32, _GradOn, _check_traces, _identity_normalization],
+    }[backend]
+    arch = [sys.modules[c.__module__] for c in type(judge.config.spec).__mro__ if c is not object]
+    traced = [] if model is None else [
+        sys.modules[type(m).__module__] for m in model.modules()
+        if type(m) not in own and type(m).__module__ != __name__ and type(m).__module__.split(".")[0] != "torch"]
+    return own + arch + traced
+
+
+def _cache_key(judge: Judge, backend: str, model: nn.Module | None = None) -> str:
+    """The name of `backend`'s cached library for `judge`, computed without building: the model's
+    numbers (model_hash), the versions of what builds it and the source of the code that generates
+    it (_generating_code), so an edit to that code builds a new library instead of loading the old
+    one. `model`: for l4casadi, the module it traces (_flat_model)."""
+    ver = f"l4casadi {_version('l4casadi')}|torch {torch.__version__}|casadi {cs.__version__}"
+    versions = {"compiled": cs.__version__, "l4casadi": f"{ver}|split{_SPLIT_BITS}", "l4casadi32": f"{ver}|float32"}
+    code = source_digest(*_generating_code(judge, backend, model))
+    return hashlib.sha256(f"{model_hash(judge)}|{backend}|{versions[backend]}|{code}".encode()).hexdigest()[:20]
 
 
 def _mkdir(p: Path) -> Path:

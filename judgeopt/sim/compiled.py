@@ -17,12 +17,13 @@ import json
 import logging
 import operator
 import struct
+import sys
 from pathlib import Path
 
 import casadi as cs
 import numpy as np
 
-from judgeopt.cbuild import CompileError, compiled_library
+from judgeopt.cbuild import CompileError, compiled_library, source_digest
 from judgeopt.files import cache_dir
 from judgeopt.sim import chain
 from judgeopt.sim.controller import IDENTITY, ControllerConfig, HybridController, TaskCommand
@@ -142,11 +143,12 @@ int {_SYMBOL}(double* io) {{
 
 
 def cache_key(model_data: dict) -> str:
-    """sha256 of the model's numbers, CasADi's version and this code (chain.py, compiled.py)."""
+    """sha256 of the model's numbers, CasADi's version and the source of the code that generates
+    the library (chain.py, this module, cbuild.compiled_library), so an edit to any of them
+    builds it again."""
     h = hashlib.sha256(json.dumps(model_data, sort_keys=True).encode())
     h.update(cs.__version__.encode())
-    for f in (Path(chain.__file__), Path(__file__)):
-        h.update(f.read_bytes())
+    h.update(source_digest(chain, sys.modules[__name__], compiled_library).encode())
     return h.hexdigest()[:20]
 
 

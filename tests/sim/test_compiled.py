@@ -9,7 +9,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from judgeopt.sim import compiled
+from judgeopt.sim import chain, compiled
 from judgeopt.sim.arm import HOME_POSTURE
 from judgeopt import cbuild
 from judgeopt.cbuild import CompileError
@@ -202,3 +202,33 @@ def test_ik_places_the_tcp_exactly_and_refuses_a_pose_out_of_reach(pair):
     assert np.abs(data.oMf[ctl.tcp].rotation - np.eye(3)).max() < 1e-9
     with pytest.raises(ValueError, match="cannot reach"):
         solve_ik(ctl.model, ctl.tcp, pin.SE3(np.eye(3), np.array([0.9, 0.1, 0.15])), HOME_POSTURE)
+
+
+#: (module edited, old text, new text): one planted bug in each piece of code that generates the library
+KEY_EDITS = [
+    (compiled, 'contact[2] = contact[2] + g["payload_weight"]', 'contact[2] = contact[2] - g["payload_weight"]'),
+    (chain, "acc[i] = acc[k] + S[i] * a[i - 1] + _cross_motion(vel[i], vi)",
+     "acc[i] = acc[k] + S[i] * a[i - 1] - _cross_motion(vel[i], vi)"),
+    (cbuild, '"-O2"', '"-O3"'),
+]
+
+
+@pytest.mark.parametrize("module, old, new", KEY_EDITS, ids=[m.__name__.rsplit(".", 1)[-1] for m, *_ in KEY_EDITS])
+def test_an_edit_to_the_generating_code_gives_a_new_cache_key(module_copy, monkeypatch, module, old, new):
+    """The library is keyed by the source of chain.py, compiled.py and cbuild.compiled_library: an
+    edit made in a copy of the module gives a new key, an unchanged copy the same one (no build)."""
+    data = {"axes": [[0.0, 0.0, 1.0]], "gravity": [0.0, 0.0, -9.81]}  # the key only reads it as numbers
+    before = compiled.cache_key(data)
+    assert compiled.cache_key(data) == before
+
+    def key_with(copy) -> str:
+        if module is compiled:
+            return copy.cache_key(data)  # the copy keys itself by its own source
+        with monkeypatch.context() as mp:
+            mp.setattr(compiled, "chain" if module is chain else "compiled_library",
+                       copy if module is chain else copy.compiled_library)
+            return compiled.cache_key(data)
+
+    assert key_with(module_copy(module)) == before
+    assert key_with(module_copy(module, old, new)) != before
+    assert compiled.cache_key(data) == before
