@@ -5,6 +5,7 @@ solve with its verdict and simulated outcome, the judge, and the task's simulato
 
     problem = judgeopt.load_problem("paper_sim", qdot_max=0.4)
     report = judgeopt.solve(problem)                 # both planners, each plan replayed in simulation
+    report = judgeopt.solve(qdot_max=0.4)            # the same: the default problem, a limit by name
     print(report)                                    # the verdict and one line per planner
     rows = report.summary()                          # a list of dicts, one per planner (a table when printed)
     report.plot("plan.png")                          # the plans against their limits, and what simulation measured
@@ -18,7 +19,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
-from judgeopt.planners.problem import Problem, find_problem
+from judgeopt.planners.problem import FIELDS, Problem, ProblemError, find_problem
 from judgeopt.planners.problem import load_problem as _load_problem_file
 from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.threads import DEFAULT_THREADS, torch_threads
@@ -49,6 +50,10 @@ def load_planners(problem: Problem | str | Path = "paper_sim", methods: Sequence
     return Planners.load(problem, methods, judge=judge, generator=generator, models_dir=models_dir)
 
 
+#: the options `solve` hands to the session (judgeopt.planners.session.solve), not to the problem
+SOLVE_OPTIONS = ("warm_start", "ranges", "range_case", "suggest")
+
+
 def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Sequence[str] | None = None,
           simulate: bool = True, world: Mapping[str, float] | None = None, threads: int | None = DEFAULT_THREADS,
           **options: Any) -> SolveReport:
@@ -58,12 +63,22 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
     `problem`: a Problem, a name, or planners already loaded (`load_planners`, to solve again without
     reloading); `simulate`: replay each plan in the task's scene, in `world` where it differs
     from what the planners were told; `threads`: torch threads during the call (judgeopt.threads: one
-    holds when the cores are busy; None leaves the process's setting); `options`: session.solve's
-    (warm_start, ranges, suggest)."""
+    holds when the cores are busy; None leaves the process's setting); `options`: the problem's
+    limits, other fields and environment values by name, as `load_problem` takes them
+    (`solve(qdot_max=0.4)`: the default problem under that limit), and session.solve's (SOLVE_OPTIONS:
+    warm_start, ranges, range_case, suggest); any other name is a one-line error, before anything loads."""
+    loaded = not isinstance(problem, (Problem, str, Path))  # planners already loaded
+    given = problem.problem if loaded else problem if isinstance(problem, Problem) else load_problem(problem)
+    overrides = {k: v for k, v in options.items() if k not in SOLVE_OPTIONS}
+    _check_overrides(given, overrides)  # before torch is imported
+    options = {k: v for k, v in options.items() if k in SOLVE_OPTIONS}
     from judgeopt.planners import session
     from judgeopt.planners.loaded import Planners
 
-    planners = problem if isinstance(problem, Planners) else load_planners(problem, methods)
+    if isinstance(problem, Planners):
+        planners = problem.with_limits(**overrides) if overrides else problem
+    else:
+        planners = load_planners(given.with_overrides(**overrides) if overrides else given, methods)
     sim = simulator(planners.problem.task) if simulate else None
     try:
         with torch_threads(threads):
@@ -71,6 +86,20 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
     finally:
         if sim is not None and hasattr(sim, "close"):
             sim.close()
+
+
+def _check_overrides(problem: Problem, overrides: Mapping[str, Any]) -> None:
+    """A one-line error naming the options `solve` takes where `overrides` has a name that is none
+    of the problem's fields or environment variables (found before any model loads)."""
+    from judgeopt.tasks import get_task as task_of
+
+    fields = [f for f in FIELDS if f not in ("environment", "world", "source")]
+    env = list(dict.fromkeys([*problem.environment, *task_of(problem.task).env_names]))
+    bad = [k for k in overrides if k not in fields and k not in env]
+    if bad:
+        raise ProblemError(f"judgeopt.solve got {', '.join(map(repr, bad))}: not a field of problem {problem.name!r}, "
+                           f"an environment variable or an option; fields: {', '.join(fields)}; environment: "
+                           f"{', '.join(env)}; options: {', '.join(SOLVE_OPTIONS)}")
 
 
 def load_judge(path: str | Path | None = None) -> Judge:

@@ -145,3 +145,36 @@ def test_every_top_level_function_has_a_return_type_and_the_stub_names_each_lazy
     stub = ast.parse((REPO / "judgeopt" / "__init__.pyi").read_text())
     named = {a.asname for node in stub.body if isinstance(node, ast.ImportFrom) for a in node.names}
     assert named == lazy and (REPO / "judgeopt" / "py.typed").exists()
+
+
+def test_solve_refuses_an_unknown_option_in_one_line_before_anything_loads(monkeypatch):
+    from judgeopt import api
+    from judgeopt.planners.problem import ProblemError
+
+    def never(*args, **kwargs):
+        raise AssertionError("the planners were loaded before the options were checked")
+
+    monkeypatch.setattr(api, "load_planners", never)
+    with pytest.raises(ProblemError) as exc:
+        judgeopt.solve(qdotmax=0.4)
+    said = str(exc.value)
+    assert said.startswith("judgeopt.solve got 'qdotmax': not a field of problem 'paper_sim'") and "\n" not in said
+    for valid in ("qdot_max", "f_max", "y_obj", "mu", "warm_start", "suggest"):  # the names it takes
+        assert valid in said
+    with pytest.raises(ProblemError, match="got 'nowhere'"):
+        judgeopt.solve("paper_sim_slow", nowhere=1)
+    code = ("import sys, judgeopt\ntry:\n    judgeopt.solve(qdotmax=0.4)\nexcept ValueError:\n"
+            "    print('torch' in sys.modules)")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == \
+        "False"  # at once: refused before torch (or any model) is loaded
+
+
+@pytest.mark.slow
+def test_solve_takes_limits_and_environment_values_by_name():
+    report = judgeopt.solve(qdot_max=0.3, mu=2.5, methods=("direct",), simulate=False, suggest=False)
+    (r,) = report.results
+    assert judgeopt.load_problem().qdot_max == 1.0  # the file's, which a plan here may exceed 0.3 under
+    assert report.problem.qdot_max == 0.3 and report.env["mu"] == 2.5 and r.env["mu"] == 2.5
+    assert r.plan is not None and np.abs(r.plan.ydot).max() <= 0.3 + 1e-9
+    again = judgeopt.solve(report.planners, qdot_max=0.5, simulate=False, suggest=False)  # loaded planners, new limit
+    assert again.problem.qdot_max == 0.5 and report.planners.problem.qdot_max == 0.3
