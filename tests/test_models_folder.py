@@ -163,6 +163,25 @@ def test_models_marks_the_default_that_solve_and_load_judge_use(monkeypatch, cap
     assert model_hash(judgeopt.load_judge()) == model_hash(judgeopt.load_judge(marked[0]))
 
 
+def test_models_prints_what_a_user_needs_not_the_history(monkeypatch, capsys):
+    """Each shipped model with what it is, what it is for and its key figure; no issue numbers or
+    working folders (out/...): that history is in docs/models.md. The default judge's figure is its
+    metadata's test accuracy, read here from its JSON."""
+    monkeypatch.delenv(MODELS_ENV, raising=False)
+    assert main(["models"]) == 0
+    out = capsys.readouterr().out
+    assert "issue " not in out.lower() and "out/" not in out
+    shipped = [e for es in _index().values() for e in es if not e["experiment"]]
+    blocks = {b.split(" (", 1)[0].strip(): b for b in out.split("\n  models/")[1:]}
+    assert {f"models/{n}" for n in blocks} == {e["name"] for e in shipped}  # every shipped one, no experiment
+    for name, block in blocks.items():
+        assert "what: " in block and "for: " in block, name
+    accuracy = json.loads((SHIPPED / "judge_refined.json").read_text())["metrics"]["test_accuracy"]
+    assert f"figure: test accuracy {accuracy:.3f}" in blocks["judge_refined"]
+    assert "problems/paper_sim.toml" in blocks["judge_refined"].split("for: ", 1)[1]
+    assert "docs/models.md" in out
+
+
 def test_docs_models_md_is_what_the_index_prints_now(monkeypatch):
     from judgeopt.cli.models import markdown
 

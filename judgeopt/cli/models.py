@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 from typing import Any
 
 from judgeopt.cli.common import JSON
@@ -34,18 +35,64 @@ def problems(entries: list[dict[str, Any]]) -> dict[str, dict[str, str]]:
     return dict(sorted(out.items()))
 
 
+#: how to plan with a model that is not a problem's default, by kind (`judgeopt solve`'s options)
+OPTION = {"judge": "--judge {}", "generator": "--generator {}", "ensemble": "--ensemble {} --pessimism K",
+          "calibration": "--calibration {}", "trust region": "--trust-model {} --trust-region X"}
+
+
+def _purpose(e: dict[str, Any], labels: list[str]) -> str:
+    """What a model is for: the problems that plan with it, or the option that names it."""
+    from judgeopt.planners.problem import ModelRefs
+
+    roles: dict[str, list[str]] = {}
+    for mark in e["defaults"]:
+        role, label = mark.split(" of ", 1)
+        roles.setdefault(role, []).append(label)
+    said = [f"the {role} of " + ("every problem of the task" if len(ps) == len(labels) > 1 else ", ".join(ps))
+            for role, ps in roles.items()]
+    if e["kind"] == "generator" and e["trained_against"]:
+        said.append(f"the amortised plan (and the direct solve's start) under the judge {e['trained_against']}")
+    if not e["defaults"] and e["kind"] == "trust region" and e["name"] == ModelRefs.trust_model:
+        said.append("the demonstrations `judgeopt solve --trust-region X` keeps the direct solve near (the default "
+                    "trust model; no shipped problem sets a trust region)")
+    elif not e["defaults"]:
+        said.append(f"not a default: name it with `judgeopt solve {OPTION[e['kind']].format(e['name'])}`")
+    if e["kind"] == "judge" and e["generators"]:
+        said.append(f"its generators: {', '.join(e['generators'])}")
+    return "; ".join(said)
+
+
+def _figure(e: dict[str, Any]) -> str | None:
+    """Its key figure as recorded; a working file (out/...) a user does not have is not named."""
+    held = e["held_out"]
+    return None if held is None else re.sub(r"\bout/[^\s,;)]*", "a file not shipped", held)
+
+
 def text(found: dict[str, list[dict[str, Any]]]) -> str:
-    """The index as lines for a terminal."""
+    """The index as lines for a terminal: for each task, what its problems plan with, then each shipped
+    model: what it is, what it is for and its key figure. What made each and how it was renamed
+    (the history) is in docs/models.md and `--json`; experiments are counted, not listed."""
     from judgeopt.tasks import get_task
 
     lines = []
     for t, entries in found.items():
-        lines.append(f"{t} (default judge: {get_task(t).default_judge})")
-        for label, roles in problems(entries).items():
-            lines.append(f"  {label:<34} judge {roles['judge']}, generator {roles.get('generator', 'none')}")
-        for e in entries:
-            lines += [f"  {e['name']:<44} {e['kind']}{_marks(e)}", f"      {e['what']}"]
-            lines += [f"      {label}: {_value(e[key])}" for key, label in DETAILS if e[key]]
+        by_problem = problems(entries)
+        lines.append(f"{t} (default judge {get_task(t).default_judge}: a {t} problem that names no judge plans with it)")
+        lines.append("  problem file                       judge, generator")
+        for label, roles in by_problem.items():
+            lines.append(f"  {label:<34} {roles['judge']}, {roles.get('generator', 'none (the direct solve alone)')}")
+        shipped = [e for e in entries if not e["experiment"]]
+        for e in shipped:
+            lines += [f"  {e['name']} ({e['kind']})", f"      what: {e['what']}",
+                      f"      for: {_purpose(e, list(by_problem))}"]
+            figure = _figure(e)
+            if figure:
+                lines.append(f"      figure: {figure}")
+        kept = len(entries) - len(shipped)
+        if kept:
+            lines.append(f"  and {kept} models kept to reproduce the paper's tables and experiments "
+                         "(models/experiments/, not in the wheel): `judgeopt models --json` lists them")
+    lines.append("What made each model and its earlier names: docs/models.md.")
     return "\n".join(lines)
 
 
@@ -94,12 +141,12 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 def add_models_command(sub: argparse._SubParsersAction) -> None:
     m = sub.add_parser("models", help="list the shipped models: what each is, and the defaults solve uses",
-                       description="Every model of a task (judges, generators, the ensemble, calibration, trust "
-                       "region) read from its own metadata: what it is, its held-out figure and the command that "
-                       "gives it, which judge a generator was trained against, what made it, and which of the task's "
-                       "problem files plan with it (the choice `judgeopt solve` makes). Models kept only to reproduce "
-                       "a table or an experiment are marked; they live in models/experiments/ and are not in the "
-                       "wheel.", parents=[JSON])
+                       description="Every shipped model of a task (judges, generators, the ensemble, calibration, "
+                       "trust region) read from its own metadata: what it is, what it is for (which of the task's "
+                       "problem files plan with it, the choice `judgeopt solve` makes, or the option that names it) "
+                       "and its key figure with the command that gives it. --json and --markdown add what made each, "
+                       "its earlier names and the models kept only to reproduce a table or an experiment (in "
+                       "models/experiments/, not in the wheel); docs/models.md holds that history.", parents=[JSON])
     m.add_argument("--task", help="one task (`judgeopt tasks` lists them; default: every task)")
     m.add_argument("--markdown", action="store_true", help="print Markdown (the index in docs/models.md)")
     m.set_defaults(func=cmd_models)
