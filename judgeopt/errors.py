@@ -35,11 +35,28 @@ EXIT_MEANINGS = {
     ExitCode.USAGE: "a bad option, value or combination of options",
     ExitCode.INFEASIBLE: "the limits admit no plan at all (found before any solver runs)",
     ExitCode.UNLIKELY: "plans were made, but no method's plan is likely to succeed",
-    ExitCode.BAD_INPUT: "a file (dataset, model, problem, plan, recording) that cannot be read or used",
+    ExitCode.BAD_INPUT: "a file (dataset, model, problem, plan, recording) that cannot be read or used, or an "
+                        "output that cannot be written (the line names it)",
     ExitCode.EXISTS: "an output exists and --overwrite was not given",
     ExitCode.MISSING: "an optional dependency is not installed, or the judge library could not be built",
-    ExitCode.INTERRUPTED: "Ctrl-C or SIGTERM: workers stopped; a collection resumes when rerun",
+    ExitCode.INTERRUPTED: "Ctrl-C or SIGTERM: workers stopped, one line says what was written; collect, evaluate, "
+                          "refine and train-ensemble resume when rerun",
 }
+
+#: the commands that keep finished work as they go (chunks, rounds, members) and resume it when rerun
+RESUMABLE = ("collect", "evaluate", "refine", "train-ensemble")
+
+
+def interrupted(command: str | None, written: list[str] | tuple[str, ...] = ()) -> str:
+    """The one line for Ctrl-C (or SIGTERM) during `judgeopt COMMAND`, saying what the user has:
+    finished work kept for a rerun (a RESUMABLE command), or the files written whole before the
+    interrupt (`written`; none is ever half-written), or that nothing was written."""
+    if command in RESUMABLE:
+        return "interrupted; what was finished is kept: rerun the same command to resume"
+    if not written:
+        return "interrupted: nothing was written"
+    shown = ", ".join(map(str, written[:3])) + (f" and {len(written) - 3} more" if len(written) > 3 else "")
+    return f"interrupted: only {shown} {'was' if len(written) == 1 else 'were'} written (whole); nothing else"
 
 
 class JudgeoptError(Exception):

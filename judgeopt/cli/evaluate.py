@@ -11,6 +11,7 @@ from typing import Any
 
 from judgeopt.cli.common import (CLIError, QUIET, env_range, file_path, floats, jobs_option, name_values, out_option, positive,
                                  seed_option, threads_option, value_range)
+from judgeopt.files import check_writable
 
 def _table_names() -> list[str]:
     """`planners`, `sweep`, `robustness` and every task's own tables (the scoop's table4, table5, compare)."""
@@ -53,6 +54,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise CLIError(f"--edge-span {args.edge_span[0]:g},{args.edge_span[1]:g}: need LO < HI")
     if args.trials is not None and args.table != "trials":
         raise CLIError("--trials: only for `judgeopt evaluate trials`")
+    check_writable([args.out or f"out/evaluate/{args.table}"])  # before any plan is made
     if args.table == "sweep":
         return cmd_sweep(args)
     if args.table == "edge":
@@ -336,6 +338,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     from judgeopt.planners.calibration import (CalibrationError, describe, fit_from_rows, load_calibration,
                                                save_calibration)
 
+    check_writable([args.out])
     rows, sources = [], []
     for folder in map(Path, args.folders):
         files = sorted((folder / "partial").glob("*.json"))

@@ -20,7 +20,7 @@ from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError
                                  out_option, positive, print_error, seed_option, set_argv, threads_option, value_range, wants_json)
 from judgeopt.cli.examples import example_perturbation
 from judgeopt.errors import JudgeoptError
-from judgeopt.files import refuse_overwrite
+from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
 
 
@@ -105,6 +105,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from judgeopt.data.dataset import load
     from judgeopt.tasks import get_task
 
+    check_writable([args.out])  # before any demonstration is replayed
     ds = load(args.data)
     task = get_task(ds.task)
     out = Path(args.out)
@@ -286,7 +287,55 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 _python_show_warning = warnings.showwarning
 
 
+def _command_of(argv: list[str] | None) -> str | None:
+    """The subcommand typed (the first word that is no option), known before anything is parsed."""
+    return next((a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")), None)
+
+
+def _written_since(start: int) -> list[str]:
+    """The files this command wrote whole (judgeopt.files.WRITTEN from `start`), not the cache's."""
+    from judgeopt import files
+
+    cache = files.cache_dir().resolve()
+    out = [p for p in files.WRITTEN[start:] if cache not in p.resolve().parents]
+    return [str(p) for p in dict.fromkeys(out)]
+
+
+def _option_for(args: argparse.Namespace, path: Path | None) -> str | None:
+    """The option that chose an output `path`: the one whose value is `path`, its stem (STEM.pt,
+    NAME_METHOD.csv) or a folder holding it; None where no option names it."""
+    if path is None:
+        return None
+    best = None
+    for dest, value in vars(args).items():
+        if not isinstance(value, str) or not value or dest in ("command", "func"):
+            continue
+        given = Path(value)
+        rank = (3 if path == given else
+                2 if path.parent == given.parent and path.name.startswith(given.stem) else
+                1 if given in path.parents else 0)
+        if rank and (best is None or (rank, len(value)) > best[0]):
+            best = ((rank, len(value)), f"--{dest.replace('_', '-')}")
+    return best[1] if best else None
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command. Ctrl-C (or SIGTERM) at any moment, loading the modules the parser is built
+    from included, is one line saying what was written or kept, and exit 130."""
+    from judgeopt import files
+    from judgeopt.errors import interrupted
+
+    start = len(files.WRITTEN)
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:
+        command = _command_of(argv)
+        print_error(f"judgeopt {command}" if command else "judgeopt", interrupted(command, _written_since(start)),
+                    ExitCode.INTERRUPTED)
+        return ExitCode.INTERRUPTED
+
+
+def _main(argv: list[str] | None) -> int:
     set_argv(argv)
     warnings.showwarning = _show_warning
     args = build_parser().parse_args(argv)
@@ -299,15 +348,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with _quiet_simulator(getattr(args, "quiet", False)):
             return int(args.func(args))
-    except KeyboardInterrupt:
-        print_error(command, "interrupted (workers stopped; a collection resumes when rerun)", ExitCode.INTERRUPTED)
-        return ExitCode.INTERRUPTED
     except Exception as exc:
         code = exit_code(exc)
         if code is None:
             if wants_json():
                 print_error(command, f"internal error: {type(exc).__name__}: {exc}", ExitCode.INTERNAL)
             raise
+        if isinstance(exc, OutputWriteError) and exc.flag is None:  # the writer knew the path, not the option
+            exc = exc.with_flag(_option_for(args, exc.path))
         message = missing_extra(exc) if isinstance(exc, ModuleNotFoundError) else str(exc)
         print_error(command, message, code)
         return code

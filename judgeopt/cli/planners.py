@@ -7,14 +7,14 @@ import json
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path,
                                  file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
-from judgeopt.files import refuse_overwrite, resolve
+from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
 from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
                                        load_problem)
@@ -206,10 +206,12 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.cli.export import export_format
 
         export_format(args.export)
+    # an output that cannot be written is not refused here: the plans are solved and shown, then
+    # the write fails in one line (exit 5), so that a typo in a folder never costs the solve
     for flag, path in (("--out", args.out), ("--save-json", args.save_json), ("--export", args.export)):
         if path:  # the message names the option to change
-            refuse_overwrite([_with_method(path, m, several) for m in methods], args.overwrite, flag)
-    refuse_overwrite([args.plot] if args.plot else [], args.overwrite, "--plot")
+            refuse_overwrite([_with_method(path, m, several) for m in methods], args.overwrite, flag, writable=False)
+    refuse_overwrite([args.plot] if args.plot else [], args.overwrite, "--plot", writable=False)
     _check_named_models(args, problem)
     planners = Planners.load(problem, methods, generator=args.generator, models_dir=args.models,
                              casadi_backend=args.casadi_backend)
@@ -233,32 +235,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
     report = session.solve(planners, simulator=sim, world=told, warm_start=args.warm_start,
                            ranges=ranges_given(args, problem), range_case=args.range_case, suggest=args.suggest)
     results, suggestions, unlikely = report.results, report.suggestions, report.unlikely
-    files = []
-    prov = None
-    if args.save_json or args.export:  # once per run: every file written says the same
-        from judgeopt.formats.plan import plan_provenance, plan_record, write_record
-
-        prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"], planners.generator_path,
-                               command_line())
-    for r in results:
-        if r.plan is not None and args.out:
-            from judgeopt.formats.table_csv import write_plan_csv
-
-            files.append(write_plan_csv(r.plan, _with_method(args.out, r.method, several), env=r.env))
-        rec = plan_record(r, problem, prov) if r.plan is not None and prov is not None else None
-        if rec is not None and args.save_json:
-            files.append(write_record(rec, _with_method(args.save_json, r.method, several)))
-        if rec is not None and args.export:
-            from judgeopt.cli.export import export_record_to
-
-            files.append(export_record_to(rec, _with_method(args.export, r.method, several)))
-    if args.plot and any(r.plan is not None for r in results):
-        from judgeopt.files import save_figure
-        from judgeopt.planners.plots import plot_plans
-
-        files.append(save_figure(plot_plans(problem, results), args.plot))
+    writes = _outputs(args, problem, planners, results, several)
     infeasible, verdict = report.infeasible, report.verdict
-    if args.json:
+    if args.json:  # written first, so that the one object says what was written (and what not)
+        files, failed = _write(writes)
         top = report.recommended
         print(json.dumps({"status": "infeasible" if infeasible else "ok", "verdict": verdict,
                           "recommended": top.method if top is not None else None,
@@ -268,7 +248,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
                           "judge_sha256": planners.judge_meta["weights_sha256"],
                           "generator": str(planners.generator_path) if planners.generator_path else None,
                           "notes": planners.notes, "files": [str(f) for f in files],
-                          "results": [r.to_json() for r in results]}))
+                          "results": [r.to_json() for r in results],
+                          **({"error": str(failed), "exit_code": int(failed.exit_code)} if failed else {})}))
+        if failed:
+            return failed.exit_code
     else:
         envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
         if args.simulate and report.world:  # what the simulated world has besides (or instead of) what was said
@@ -308,6 +291,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
                   "environment and judge's p far from the outcomes it was fitted on): its success p is the judge's own")
         print(f"legend: {LEGEND}" if args.explain else "(judge: the judge's own p; success p: the p judgeopt stands "
               "behind; --explain says more)")
+        files, failed = _write(writes)
         for f in files:
             print(f"wrote {f}")
         top = report.recommended
@@ -329,7 +313,59 @@ def cmd_solve(args: argparse.Namespace) -> int:
                       f"  no single relaxation ({', '.join(searched(problem))}; each within the demonstrations' "
                       "range or its reach) makes a plan likely")
         print(f"total {time.perf_counter() - t0:.1f} s")
+        if failed:  # everything above is printed; the one line says what could not be written
+            raise failed
     return ExitCode.INFEASIBLE if infeasible else ExitCode.OK if verdict == "likely" else ExitCode.UNLIKELY
+
+
+#: one output of solve, not yet written: (the option that named it, the writer returning its path)
+Output = tuple[str, Callable[[], Path]]
+
+
+def _outputs(args: argparse.Namespace, problem: Problem, planners, results, several: bool) -> list[Output]:
+    """The files solve writes (--out, --save-json, --export per method, --plot), each as a writer
+    run after the plans are shown (`_write`)."""
+    writes: list[Output] = []
+    prov = None
+    if args.save_json or args.export:  # once per run: every file written says the same
+        from judgeopt.formats.plan import plan_provenance, plan_record, write_record
+
+        prov = plan_provenance(planners.judge_path, planners.judge_meta["weights_sha256"], planners.generator_path,
+                               command_line())
+    for r in results:
+        if r.plan is not None and args.out:
+            from judgeopt.formats.table_csv import write_plan_csv
+
+            writes.append(("--out", lambda r=r: write_plan_csv(r.plan, _with_method(args.out, r.method, several),
+                                                                env=r.env)))
+        rec = plan_record(r, problem, prov) if r.plan is not None and prov is not None else None
+        if rec is not None and args.save_json:
+            writes.append(("--save-json", lambda rec=rec, r=r: write_record(rec, _with_method(args.save_json, r.method,
+                                                                                               several))))
+        if rec is not None and args.export:
+            from judgeopt.cli.export import export_record_to
+
+            writes.append(("--export", lambda rec=rec, r=r: export_record_to(rec, _with_method(args.export, r.method,
+                                                                                                several))))
+    if args.plot and any(r.plan is not None for r in results):
+        from judgeopt.files import save_figure
+        from judgeopt.planners.plots import plot_plans
+
+        writes.append(("--plot", lambda: save_figure(plot_plans(problem, results), args.plot)))
+    return writes
+
+
+def _write(writes: list[Output]) -> tuple[list[Path], OutputWriteError | None]:
+    """Every output that can be written, and the first that could not (naming its option): one
+    unwritable folder neither stops the other files nor hides the plans already shown."""
+    files: list[Path] = []
+    failed = None
+    for flag, write in writes:
+        try:
+            files.append(write())
+        except OutputWriteError as exc:
+            failed = failed or exc.with_flag(flag)
+    return files, failed
 
 
 def _assignments(items: list[str] | None) -> dict[str, float]:

@@ -12,13 +12,16 @@ if TYPE_CHECKING:
 
 
 def cmd_refine(args: argparse.Namespace) -> int:
-    from judgeopt.files import atomic_write, save_figure
+    from judgeopt.files import atomic_write, check_writable, save_figure
     from judgeopt.formats.table_csv import write_records
     from judgeopt.cli.planners import limit_ranges_from_args, problem_from_args
     from judgeopt.planners.limits import wide_limits
     from judgeopt.files import resolve
     from judgeopt.refine.loop import RefineConfig, install, refine
 
+    check_writable([args.out])  # before the first round, not at its end
+    if args.install:
+        check_writable([resolve("models") / args.install], "--install NAME")
     problem = problem_from_args(args)
     ranges = limit_ranges_from_args(args, wide_limits(problem.task)) if args.sample_limits else None
     if ranges is not None:

@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import json
 import shutil
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from judgeopt.files import cannot_write, make_temp_dir
 from judgeopt.formats.frame import TaskFrame
 from judgeopt.trajectory import Plan, PlanError
 
@@ -79,8 +79,7 @@ def write_mcap(plan: Plan, frame: TaskFrame, path: str | Path, info: dict[str, A
         return T["geometry_msgs/msg/Vector3"](x=float(v[0]), y=float(v[1]), z=float(v[2]))
 
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
+    tmp = make_temp_dir(path)  # an unwritable folder: one line naming `path` (OutputWriteError)
     bag = tmp / "bag"
     try:
         with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as w:
@@ -101,7 +100,7 @@ def write_mcap(plan: Plan, frame: TaskFrame, path: str | Path, info: dict[str, A
         (bag / "bag.mcap").replace(path)
     except Exception as exc:  # rosbags' own errors (a bad value, a full disk) as one line
         if isinstance(exc, OSError):
-            raise RosExportError(f"{path}: cannot write ({exc})") from None
+            raise cannot_write(path, exc) from None
         raise RosExportError(f"{path}: rosbags could not write the plan ({type(exc).__name__}: {exc})") from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)

@@ -38,12 +38,13 @@ TABLE: dict[str, ExitCode] = {
     "judgeopt.judge.store.IncompatibleJudgeError": ExitCode.BAD_INPUT,
     "judgeopt.sim.chain.UnsupportedModel": ExitCode.BAD_INPUT,
     "judgeopt.files.OverwriteError": ExitCode.EXISTS,
+    "judgeopt.files.OutputWriteError": ExitCode.BAD_INPUT,
     "judgeopt.judge.casadi_fn.CasadiBuildError": ExitCode.MISSING,
     "judgeopt.sim.robot.RobotDescriptionError": ExitCode.MISSING,
     "judgeopt.cbuild.CompileError": ExitCode.MISSING,
 }
 #: the bases each class kept, so that `except ValueError` (and the like) still catches it
-KEPT = {"ValueError": ValueError, "RuntimeError": RuntimeError, "FileExistsError": FileExistsError}
+KEPT = {"ValueError": ValueError, "RuntimeError": RuntimeError, "FileExistsError": FileExistsError, "OSError": OSError}
 
 
 def _load(dotted: str) -> type:
