@@ -1,5 +1,19 @@
 """The `judgeopt` command line: one package, one subcommand module per pipeline stage."""
 
-from judgeopt.cli.main import main
+try:
+    from judgeopt.cli.main import main
+except KeyboardInterrupt:  # Ctrl-C while its modules load (the first second): one line and 130, as later on
+    import json as _json
+    import sys as _sys
+
+    from judgeopt.errors import ExitCode as _ExitCode, interrupted as _interrupted
+
+    _command = next((a for a in _sys.argv[1:] if not a.startswith("-")), None)
+    _where, _message = f"judgeopt{' ' + _command if _command else ''}", _interrupted(_command)
+    if "--json" in _sys.argv[1:]:
+        print(_json.dumps({"error": _message, "exit_code": int(_ExitCode.INTERRUPTED), "command": _where}))
+    else:
+        print(f"{_where}: error: {_message}", file=_sys.stderr)
+    raise SystemExit(_ExitCode.INTERRUPTED) from None
 
 __all__ = ["main"]

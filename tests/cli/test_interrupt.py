@@ -1,0 +1,118 @@
+"""Ctrl-C at any moment is one line on stderr and exit 130, worded for the command: while its modules
+load (the first seconds), while it works, and after it wrote some files (named: none is ever
+half-written); a command that keeps its finished work says a rerun resumes."""
+
+from __future__ import annotations
+
+import importlib
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from judgeopt.errors import RESUMABLE, ExitCode, interrupted
+from judgeopt.files import atomic_write
+
+
+def test_the_wording_says_what_each_command_leaves():
+    assert interrupted("solve") == "interrupted: nothing was written"
+    assert interrupted(None) == "interrupted: nothing was written"
+    assert interrupted("solve", ["a.csv"]) == "interrupted: only a.csv was written (whole); nothing else"
+    assert interrupted("render", [f"{k}.gif" for k in range(5)]) == (
+        "interrupted: only 0.gif, 1.gif, 2.gif and 2 more were written (whole); nothing else")
+    for command in ("collect", "evaluate", "refine", "train-ensemble"):
+        assert command in RESUMABLE
+        assert interrupted(command, ["chunk_000001.npz"]) == ("interrupted; what was finished is kept: rerun the "
+                                                              "same command to resume")
+    assert "resume" not in interrupted("train-judge") and "resume" not in interrupted("solve")
+
+
+@pytest.fixture
+def cli():
+    return importlib.import_module("judgeopt.cli.main")  # judgeopt.cli.main is also the function
+
+
+def test_an_interrupt_while_a_command_works_is_one_line(cli, monkeypatch, capsys):
+    def stopped(args):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_tasks", stopped)
+    assert cli.main(["tasks"]) == ExitCode.INTERRUPTED == 130
+    assert capsys.readouterr().err.splitlines() == ["judgeopt tasks: error: interrupted: nothing was written"]
+
+
+def test_an_interrupt_after_a_file_was_written_names_it(cli, monkeypatch, capsys, tmp_path):
+    def wrote_one(args):
+        atomic_write(tmp_path / "done.csv", "x\n")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_tasks", wrote_one)
+    assert cli.main(["tasks"]) == 130
+    assert capsys.readouterr().err.splitlines() == [
+        f"judgeopt tasks: error: interrupted: only {tmp_path / 'done.csv'} was written (whole); nothing else"]
+
+
+def test_an_interrupt_while_the_parser_is_built_is_one_line_for_the_command_typed(cli, monkeypatch, capsys):
+    """Building the parser imports most of judgeopt (tasks, planners, problems): the first second."""
+    def loading():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "build_parser", loading)
+    assert cli.main(["collect", "--out", "x.h5"]) == 130
+    assert capsys.readouterr().err.splitlines() == [
+        "judgeopt collect: error: interrupted; what was finished is kept: rerun the same command to resume"]
+
+
+def test_an_interrupt_under_json_is_one_object(cli, monkeypatch, capsys):
+    import json
+
+    monkeypatch.setattr(cli, "cmd_tasks", lambda args: (_ for _ in ()).throw(KeyboardInterrupt))
+    assert cli.main(["tasks", "--json"]) == 130
+    out = capsys.readouterr().out
+    assert json.loads(out) == {"error": "interrupted: nothing was written", "exit_code": 130,
+                               "command": "judgeopt tasks"}
+
+
+# -- a real Ctrl-C: the command as a user runs it -----------------------------------------------------------
+def _loaded(pid: int, library: str) -> bool:
+    """Has process `pid` mapped `library` (numpy: judgeopt.cli.main is loading; torch: the planners are)?"""
+    try:
+        return library in Path(f"/proc/{pid}/maps").read_text()
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/maps").exists(), reason="needs /proc to see what the command has loaded")
+@pytest.mark.parametrize("how, when", [("module", "loading"), ("script", "loading"), ("module", "solving")])
+def test_ctrl_c_at_any_moment_of_solve_is_one_line_and_130(tmp_path, how, when):
+    """`loading`: while judgeopt.cli's modules import (numpy mapped, the parser not yet built) - a
+    traceback from an import before; `solving`: after torch loaded, with the planners at work."""
+    script = Path(sys.executable).with_name("judgeopt")
+    if how == "script" and not script.exists():
+        pytest.skip("the judgeopt script is not installed beside this Python")
+    start = [sys.executable, "-m", "judgeopt"] if how == "module" else [str(script)]
+    out = tmp_path / "plan.csv"
+    # Ctrl-C as at a terminal: a shell starting the tests in the background ignores SIGINT, and a
+    # child inherits that, so the command is started with the default disposition
+    p = subprocess.Popen([*start, "solve", "--quiet", "--out", str(out)], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, env={**os.environ, "PYTHONUNBUFFERED": "1"},
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    t0 = time.time()
+    library = "numpy" if when == "loading" else "torch"
+    while not _loaded(p.pid, library) and p.poll() is None and time.time() - t0 < 120:
+        time.sleep(0.01)
+    if when == "solving":
+        time.sleep(1.0)  # the planners load and solve for seconds after torch is mapped
+    assert p.poll() is None, p.stderr.read().decode()[-2000:]
+    p.send_signal(signal.SIGINT)
+    code = p.wait(60)
+    stdout, stderr = p.stdout.read().decode(), p.stderr.read().decode()
+    p.stdout.close(), p.stderr.close()
+    assert code == 130, stderr[-2000:]
+    assert "Traceback" not in stderr
+    assert stderr.splitlines() == ["judgeopt solve: error: interrupted: nothing was written"], stderr
+    assert not out.exists() and list(tmp_path.iterdir()) == []
