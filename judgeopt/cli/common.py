@@ -27,13 +27,21 @@ EXTRAS = {"pybullet": "sim", "pybullet_data": "sim", "pinocchio": "sim", "exampl
           "dask": "dask", "distributed": "dask", "pyarrow": "lerobot", "rosbags": "ros", "l4casadi": "l4casadi"}
 
 
+#: (extra, command) -> the option with which that command does without the extra (the error names it)
+WITHOUT_EXTRA = {("sim", "solve"): "--no-simulate, to plan without replaying the plans in simulation"}
+
+
 def missing_extra(exc: ModuleNotFoundError) -> str | None:
-    """The one-line fix for a missing optional dependency, or None if it is not one of ours."""
+    """The one-line fix for a missing optional dependency, or None if it is not one of ours; where the
+    command can run without it (solve without the `sim` extra: --no-simulate), that option too."""
     root = (exc.name or "").split(".")[0]
     extra = EXTRAS.get(root)
     if extra is None:
         return None
-    return f"this needs {root}, which is not installed: pip install 'judgeopt[{extra}]'"
+    argv = _ARGV if _ARGV is not None else sys.argv[1:]
+    without = WITHOUT_EXTRA.get((extra, argv[0] if argv else ""))
+    return (f"this needs {root}, which is not installed: pip install 'judgeopt[{extra}]'"
+            + (f", or run it with {without}" if without else ""))
 
 
 def wants_json(argv: list[str] | None = None) -> bool:
