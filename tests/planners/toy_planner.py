@@ -11,8 +11,7 @@ from __future__ import annotations
 import time
 
 from judgeopt.planners.base import Planner, PlannerSpec
-from judgeopt.planners.cold_start import default_guess
-from judgeopt.planners.result import PlanResult, constraint_residuals
+from judgeopt.planners.toolkit import min_jerk_plan, plan_result
 
 
 class Straight(Planner):
@@ -21,12 +20,8 @@ class Straight(Planner):
     method = "toy"
 
     def solve(self, env, guess=None):
-        t0 = time.perf_counter()
-        env = self.problem.env_dict(env)
-        plan = default_guess(self.problem, env)
-        p = float(self.judge.predict_proba(plan.as_array()[None], [[env[k] for k in self.judge.config.env_names]])[0])
-        return PlanResult(self.method, env, plan, p, "solved", time.perf_counter() - t0,
-                          constraint_residuals(self.problem, plan, env))
+        started = time.perf_counter()
+        return plan_result(self, env, min_jerk_plan(self.problem, env), started)
 
     def with_limits(self, problem):
         return Straight(problem, self.judge)
