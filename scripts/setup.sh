@@ -2,7 +2,11 @@
 # Create .venv and install judgeopt with everything it needs, in the one order that works:
 # torch (CPU wheel) first, then the build tools, then l4casadi built against that torch
 # (see shared/notes/dependencies.md), then the package itself, every package at the version CI
-# tests (scripts/constraints.txt; pyproject.toml has the ranges), and Debian's chromium for the docs test.
+# tests (scripts/constraints.txt, torch and l4casadi included; pyproject.toml has the ranges), and
+# Debian's chromium for the docs test.
+# torch comes from PyTorch's CPU index (TORCH_INDEX_URL; PyPI's Linux wheel is the far larger CUDA
+# build); TORCH_INDEX_URL= (empty) takes it from pip's own configuration instead. pip also searches
+# its configured find-links, so where that index cannot be reached a CPU wheel there is used.
 # Idempotent: a second run only checks for chromium and a stamp, and returns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -19,10 +23,11 @@ if [ -f "$stamp" ]; then exit 0; fi
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
 pip() { "$VENV/bin/python" -m pip "$@"; }
 pip install -q --upgrade pip
-pip install -q torch==2.13.0
+TORCH_INDEX_URL=${TORCH_INDEX_URL-https://download.pytorch.org/whl/cpu}
+pip install -q -c scripts/constraints.txt ${TORCH_INDEX_URL:+--index-url "$TORCH_INDEX_URL"} torch
 pip install -q -c scripts/constraints.txt casadi scikit-build cmake ninja setuptools wheel
 if ! "$VENV/bin/python" -c "import l4casadi" 2>/dev/null; then
-  CMAKE_POLICY_VERSION_MINIMUM=3.5 pip install -q --no-build-isolation l4casadi==2.0.0
+  CMAKE_POLICY_VERSION_MINIMUM=3.5 pip install -q --no-build-isolation -c scripts/constraints.txt l4casadi
 fi
 pip install -q --no-build-isolation -c scripts/constraints.txt -e ".[test,docs]"
 rm -f "$VENV"/.judgeopt-setup-*
