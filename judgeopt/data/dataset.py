@@ -162,6 +162,10 @@ def save(ds: Dataset, path: str | Path) -> Path:
 _JSON_ATTRS = {"simulator", "settings", "generator", "errors", "seed", "randomize", "focus"}
 
 
+#: suffixes of the recordings `judgeopt import-demos` reads (not datasets): named in load's message
+RECORDING_SUFFIXES = (".csv", ".mcap")
+
+
 def load(path: str | Path) -> Dataset:
     """Read and validate a dataset file; every problem is reported as a DatasetError naming it."""
     path = Path(path)
@@ -173,6 +177,10 @@ def load(path: str | Path) -> Dataset:
     try:
         h = h5py.File(path, "r")
     except OSError as exc:
+        if path.suffix.lower() in RECORDING_SUFFIXES:  # a recording given where a dataset belongs
+            h5 = path.with_suffix(".h5")
+            raise DatasetError(f"{path}: a {path.suffix.lstrip('.').upper()} recording, not a dataset; import it "
+                               f"first with `judgeopt import-demos {path} --out {h5}` and give {h5} instead") from None
         raise DatasetError(f"{path}: not a readable HDF5 file ({exc})") from exc
     with h:
         a = dict(h.attrs)

@@ -66,6 +66,33 @@ def stratified_split(labels: np.ndarray, fraction: float, seed: int) -> tuple[np
     return t, v
 
 
+def split_minimum(fraction: float) -> int:
+    """The fewest demonstrations of a class for which `stratified_split` puts at least one in
+    validation and leaves at least one to train on (round(fraction n) >= 1 and < n)."""
+    n = 2
+    while not 1 <= int(round(fraction * n)) < n:
+        n += 1
+    return n
+
+
+def check_split(labels: np.ndarray, fraction: float) -> None:
+    """Refuse a training set too small for its validation split: a class with no validation
+    demonstration gives a validation accuracy of nan (or of one class only) and an arbitrary epoch."""
+    labels = np.asarray(labels)
+    counts = {"successes": int(np.sum(labels == 1)), "failures": int(np.sum(labels == 0))}
+    need = split_minimum(fraction)
+    if min(counts.values()) >= need:
+        return
+    fewest = min(counts.values())
+    other = next((f for f in (0.3, 0.4, 0.45) if fraction < f and split_minimum(f) <= fewest), None)
+    s, f = counts["successes"], counts["failures"]
+    raise JudgeError(f"{len(labels)} demonstrations ({s} success{'es' * (s != 1)}, {f} failure{'s' * (f != 1)}) "
+                     f"are too few for a validation split of {fraction:g}: each class needs at least {need} "
+                     f"demonstrations (one or more to validate on, one or more to train on); add demonstrations"
+                     + (f" or raise --val-fraction to {other:g}" if other is not None else
+                        "" if fewest >= 2 else " (at least 2 per class at any --val-fraction)"))
+
+
 def _tensors(model: Judge, ds: Dataset, invert: bool, view: str = "response"
              ) -> tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
     x, e = model.check_inputs(*judge_inputs(model, ds, view))
@@ -106,6 +133,7 @@ def train_judge(train_ds: Dataset, test_ds: Dataset | None, config: JudgeConfig 
     np.random.seed(tc.seed)
     if len(np.unique(train_ds.labels)) < 2:
         raise JudgeError("the training set holds only one class: nothing to learn")
+    check_split(train_ds.labels, tc.val_fraction)
 
     tr_idx, va_idx = stratified_split(train_ds.labels, tc.val_fraction, tc.seed)
     train_part, val_part = train_ds.subset(tr_idx), train_ds.subset(va_idx)
