@@ -277,9 +277,12 @@ def _quiet_simulator(quiet: bool) -> Iterator[None]:
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
-    """A problem file's field in its old place is one line of note; other warnings as Python shows them."""
+    """A problem file's field in its old place is one line of note, a limit in an implausible unit one
+    line of warning; other warnings as Python shows them."""
     if category.__name__ == "ProblemDeprecation":
         print(f"note: {message}", file=sys.stderr)
+    elif category.__name__ == "ProblemUnits":
+        print(f"warning: {message}", file=sys.stderr)
     else:
         _python_show_warning(message, category, filename, lineno, file, line)
 

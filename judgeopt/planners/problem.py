@@ -87,6 +87,18 @@ OLD_SECTIONS: dict[str, tuple[str, ...]] = {"weights": ("P", "Q", "R", "acc_weig
 
 class ProblemDeprecation(FutureWarning):
     """A problem file that still works but holds a field in its old place (shown once per file and field)."""
+
+
+class ProblemUnits(UserWarning):
+    """A limit beyond any plausible motion in the task's units (`--qdot-max 400`: mm/s for m/s?): planned
+    as given, never changed silently, but said once, with the value it likely meant."""
+
+
+#: limits checked against the plausible magnitudes of their channel's kind (judgeopt.data.recording.LIMITS)
+UNIT_CHECKED = {"q_min": "position", "q_max": "position", "qdot_min": "velocity", "qdot_max": "velocity",
+                "f_min": "force", "f_max": "force"}
+#: a unit mistaken for the task's SI one, by the SI unit: (its name, its size in the SI unit)
+SMALLER_UNIT = {"m": ("mm", 1e-3), "m/s": ("mm/s", 1e-3), "N": ("mN", 1e-3)}
 #: the position, velocity and force limits (bounds a planner can change without being rebuilt)
 LIMIT_NAMES = SECTIONS["limits"]
 #: what each field means, with its unit (the command line's help; position fields per axis of the task)
@@ -376,6 +388,29 @@ class Problem:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ProblemError(f"world {k} = {v!r}{where} must be a finite number (the simulated world has one value)")
         self.task_frame()
+        for hint in self.unit_hints():
+            warnings.warn(hint, ProblemUnits, stacklevel=2)
+
+    def unit_hints(self) -> list[str]:
+        """A line per limit beyond any plausible motion of its kind (10 m/s, 1000 N, 5 m; the
+        importer's LIMITS): most likely a value in mm/s, mm or another unit than the task's."""
+        from judgeopt.data.recording import LIMITS
+
+        task = get_task(self.task)
+        hints = []
+        for name, kind in UNIT_CHECKED.items():  # not "in FILE": the value may be an override of the file's
+            channels = task.channels_of(kind)
+            unit = channels[0].unit if channels else ""
+            values = [float(x) for x in np.atleast_1d(np.asarray(getattr(self, name), dtype=float))]
+            worst = max(values, key=abs)
+            if abs(worst) <= LIMITS[kind]:
+                continue
+            small = SMALLER_UNIT.get(unit)
+            meant = (f"; if {worst:g} was in {small[0]}, give {worst * small[1]:g}" if small else "")
+            shown = f"{values[0]:g}" if len(values) == 1 else "[" + ", ".join(f"{x:g}" for x in values) + "]"
+            hints.append(f"{name} = {shown} {unit} is beyond any plausible {kind} ({LIMITS[kind]:g} {unit}): the "
+                         f"limits are in the task's units ({unit}){meant}")
+        return hints
 
     def task_frame(self) -> TaskFrame:
         """The checked task frame, defaults filled in (a bad one names the file and the field)."""
