@@ -163,3 +163,33 @@ def test_permission_and_a_read_only_file_system_are_refused_before_any_work(tmp_
     monkeypatch.setattr(os, "statvfs", lambda path: ReadOnly)
     with pytest.raises(OutputWriteError, match="the file system is read-only; choose a writable folder with --out$"):
         check_writable([tmp_path / "x.txt"])
+
+
+# -- the backstop: a write that fails after the check (the disk changed meanwhile) --------------------------
+def test_a_write_failing_after_the_check_still_names_the_option(tmp_path, capsys, monkeypatch):
+    """export-demos with its check skipped: the writer's own error, given its option by the command line."""
+    import judgeopt.cli.recordings as recordings
+    from judgeopt.files import REPO
+
+    data = tmp_path / "d.h5"
+    assert main(["import-demos", str(REPO / "data" / "example_demos.csv"), "--out", str(data)]) == 0
+    capsys.readouterr()
+    monkeypatch.setattr(recordings, "refuse_overwrite", lambda *a, **k: None)
+    target = _blocked(tmp_path) / "d.csv"
+    assert main(["export-demos", str(data), "--out", str(target)]) == 5
+    out, err = capsys.readouterr()
+    assert err.splitlines() == [f"judgeopt export-demos: error: cannot write {target}: {target.parent} is a file, "
+                                "not a folder; choose a writable folder with --out"]
+
+
+@pytest.mark.parametrize("path, flag", [("out/j.pt", "--out"), ("out/j.history.csv", "--out"),
+                                        ("ev/partial/chunk.json", "--out"), ("plans/p_direct.json", "--save-json"),
+                                        ("elsewhere/x.csv", None)])
+def test_the_option_is_found_by_the_path_it_chose(path, flag):
+    import argparse
+
+    from judgeopt.cli.main import _option_for
+
+    args = argparse.Namespace(command="x", out="out/j" if path.startswith("out") else "ev", save_json="plans/p.json",
+                              data="data/train.h5", models="models", quiet=False, n=3)
+    assert _option_for(args, Path(path)) == flag
