@@ -4,9 +4,8 @@
 # (see shared/notes/dependencies.md), then the package itself, every package at the version CI
 # tests (scripts/constraints.txt, torch and l4casadi included; pyproject.toml has the ranges), and
 # Debian's chromium for the docs test.
-# torch comes from PyTorch's CPU index (TORCH_INDEX_URL; PyPI's Linux wheel is the far larger CUDA
-# build); TORCH_INDEX_URL= (empty) takes it from pip's own configuration instead. pip also searches
-# its configured find-links, so where that index cannot be reached a CPU wheel there is used.
+# torch comes from pip's own configuration (CI's machines hold the CPU wheel); on a machine whose pip
+# would take PyPI's far larger CUDA build, set TORCH_INDEX_URL=https://download.pytorch.org/whl/cpu.
 # Idempotent: a second run only checks for chromium and a stamp, and returns.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -23,7 +22,7 @@ if [ -f "$stamp" ]; then exit 0; fi
 [ -x "$VENV/bin/python" ] || "$PY" -m venv "$VENV"
 pip() { "$VENV/bin/python" -m pip "$@"; }
 pip install -q --upgrade pip
-TORCH_INDEX_URL=${TORCH_INDEX_URL-https://download.pytorch.org/whl/cpu}
+TORCH_INDEX_URL=${TORCH_INDEX_URL:-}
 pip install -q -c scripts/constraints.txt ${TORCH_INDEX_URL:+--index-url "$TORCH_INDEX_URL"} torch
 pip install -q -c scripts/constraints.txt casadi scikit-build cmake ninja setuptools wheel
 if ! "$VENV/bin/python" -c "import l4casadi" 2>/dev/null; then
