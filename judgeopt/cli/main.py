@@ -12,7 +12,6 @@ import warnings
 from pathlib import Path
 from typing import Iterator
 
-import numpy as np
 
 from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
@@ -102,6 +101,8 @@ def cmd_tasks(args: argparse.Namespace) -> int:
 
 # -- render ----------------------------------------------------------------------------
 def cmd_render(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from judgeopt.data.dataset import load
     from judgeopt.tasks import get_task
 

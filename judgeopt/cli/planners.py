@@ -9,7 +9,6 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Callable
 
-import numpy as np
 
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path,
                                  file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
@@ -180,6 +179,8 @@ def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
 
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
+
+    import numpy as np
 
     from judgeopt.planners import session
     from judgeopt.planners.feasible import check as check_constraints
@@ -409,6 +410,8 @@ def margin_shifts(given: list[tuple[str, str]], problem: Problem) -> tuple[tuple
 
 
 def cmd_train_generator(args: argparse.Namespace) -> int:
+    import numpy as np
+
     import numpy as np
     import torch
 
