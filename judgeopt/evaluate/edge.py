@@ -31,7 +31,7 @@ from judgeopt.evaluate.feasibility import SearchConfig, search
 from judgeopt.evaluate.report import calibration_error, cell, reliability
 from judgeopt.files import atomic_write
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import overall_verdict
+from judgeopt.planners.result import BREAKS, OUTSIDE, overall_verdict
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -199,7 +199,8 @@ def summarise_edge(rows: Sequence[dict], methods: Sequence[str]) -> dict:
                     "likely": len(likely), "likely_failed": sum(not r["simulated_success"] for r in likely),
                     "likely_failed_pct": _rate(sum(not r["simulated_success"] for r in likely), len(likely)),
                     "unlikely": len(unlikely), "unlikely_succeeded": sum(bool(r["simulated_success"]) for r in unlikely),
-                    "outside_judge_data": sum(r["verdict"] not in ("likely", "unlikely") for r in rs),
+                    "outside_judge_data": sum(r["verdict"] == OUTSIDE for r in rs),
+                    "breaks_limits": sum(r["verdict"] == BREAKS for r in rs),
                     "calibrated": sum(r.get("probability_source") == "calibrated" for r in rs),
                     "mean_p": float(p.mean()) if len(p) else None, "success_pct": _rate(int(sim.sum()), len(rs)),
                     "ece": calibration_error(p, sim, EDGE_BINS) if len(p) else None,
@@ -227,12 +228,13 @@ def markdown_edge(summary: dict, title: str, command: str) -> str:
              f"{summary['environments']} environments, an edge found in {summary['edges_found']} (the limit's value "
              f"at the edge: {where}); {summary['settings']} settings around it.", "",
              "| planner | plans | succeeded | 'likely' | 'likely' and failed | 'unlikely' | 'unlikely' and succeeded "
-             "| outside the judge's data | calibrated p | mean p | ECE |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| outside the judge's data | breaks a hard limit | calibrated p | mean p | ECE |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for s in summary["planners"]:
         lines.append(f"| {s['method']} | {s['plans']} | {s['successes']} ({cell(s['success_pct'], '.0f', ' %')}) "
                      f"| {s['likely']} | {s['likely_failed']} ({cell(s['likely_failed_pct'], '.1f', ' %')}) "
-                     f"| {s['unlikely']} | {s['unlikely_succeeded']} | {s['outside_judge_data']} | {s['calibrated']} "
+                     f"| {s['unlikely']} | {s['unlikely_succeeded']} | {s['outside_judge_data']} | {s['breaks_limits']} "
+                     f"| {s['calibrated']} "
                      f"| {cell(s['mean_p'], '.3f')} | {cell(s['ece'], '.3f')} |")
     lines += ["", f"Settings where no plan succeeded: {summary['none_succeeded']}; the overall verdict (the "
               f"recommended plan's) said 'likely' in {summary['likely_where_none_succeeded']} of them.", "",

@@ -11,7 +11,8 @@ also reads version 1, whose columns were always q, qdot, f):
     success_probability         the probability judgeopt stands behind: calibrated on replayed
                                 outcomes of this planner setting where a calibration covers it,
                                 else the judge's; probability_source says which ("calibrated",
-                                "judge"); verdict "likely" (>= 0.5) or "unlikely"
+                                "judge"); verdict "likely" (>= 0.5), "unlikely", "outside the
+                                judge's data" or "breaks a hard limit"
     simulated_success           true/false if replayed in the simulator, else null; `simulation`
                                 holds what the replay measured
     max_constraint_violation, worst_constraint, residuals   every constraint's worst violation

@@ -27,12 +27,16 @@ OUTSIDE = "outside the judge's data"
 #: a plan holds its hard constraints when its worst residual is at most this (in the constraint's
 #: units); the plan recommended to run is one that holds them, where any does
 HOLD_TOL = 1e-3
+#: the verdict on a plan that breaks a hard constraint by more than HOLD_TOL, whatever its p: a plan
+#: the robot must not run is never "likely"
+BREAKS = "breaks a hard limit"
 #: what judge / success p / verdict mean, for `solve --explain` and the table's legend
 LEGEND = ("judge: the judge's own probability that the plan succeeds; success p: the probability judgeopt stands "
           "behind: 'calibrated' where a calibration fitted on replayed outcomes of this planner covers the plan "
           "(limits, environment and the judge's p), else the judge's, marked uncalibrated; verdict: likely at success "
           f"p >= {LIKELY}, else unlikely, or '{OUTSIDE}' where the request lies outside the ranges the judge "
-          "learnt from and no calibration covers it; simulated: the plan replayed in the physics simulation")
+          "learnt from and no calibration covers it, or '{BREAKS}' where the plan breaks one by more than "
+          f"{HOLD_TOL:g} in its units, whatever its p; simulated: the plan replayed in the physics simulation")
 
 
 #: how close to p_target (in probability) a plan's judge must come to count as reaching it
@@ -102,9 +106,10 @@ class PlanResult:
 
     @property
     def verdict(self) -> str | None:
-        """"likely" (success_probability >= LIKELY), "unlikely", or OUTSIDE (the judge's own p
-        where the request lies outside its data); None without a plan."""
-        return verdict_of(self.success_probability, self.probability_source, self.info.get("outside_judge_data"))
+        """"likely" (success_probability >= LIKELY), "unlikely", OUTSIDE (the judge's own p where the
+        request lies outside its data) or BREAKS (a hard constraint broken); None without a plan."""
+        return verdict_of(self.success_probability, self.probability_source, self.info.get("outside_judge_data"),
+                          breaks(self.max_constraint_violation))
 
     @property
     def max_constraint_violation(self) -> float | None:
@@ -177,11 +182,20 @@ def stood_behind(predicted: float | None, calibrated: float | None, covers: bool
     return (None, "") if predicted is None else (float(predicted), "judge")
 
 
-def verdict_of(p: float | None, source: str = "", outside: Sequence[str] | None = None) -> str | None:
-    """"likely" at p >= LIKELY, else "unlikely"; OUTSIDE where `outside` names what lies beyond
-    the judge's data and p is the judge's own (a calibrated p was checked there); None without a p."""
+def breaks(worst_violation: float | None) -> bool:
+    """Whether a plan whose worst constraint residual is this breaks a hard limit (beyond HOLD_TOL)."""
+    return worst_violation is not None and worst_violation > HOLD_TOL
+
+
+def verdict_of(p: float | None, source: str = "", outside: Sequence[str] | None = None,
+               broken: bool = False) -> str | None:
+    """BREAKS where the plan breaks a hard limit (`broken`), whatever p; else "likely" at p >= LIKELY,
+    "unlikely" below; OUTSIDE where `outside` names what lies beyond the judge's data and p is the
+    judge's own (a calibrated p was checked there); None without a p."""
     if p is None:
         return None
+    if broken:
+        return BREAKS
     if outside and source != "calibrated":
         return OUTSIDE
     return "likely" if p >= LIKELY else "unlikely"
@@ -194,14 +208,16 @@ def _get(r: Any, key: str) -> Any:
 def recommended(results: Sequence[Any]) -> Any | None:
     """The plan a user should run, of PlanResults or their JSON rows: among plans with a verdict,
     those that hold the hard constraints (HOLD_TOL) first, then those whose verdict is not OUTSIDE,
-    then the highest success probability; ties go to the first listed. None: no plan."""
+    then those whose p was calibrated on replayed outcomes (a judge's own p, highest exactly where a
+    planner maximised it, is no rival to a checked one), then the highest p judgeopt stands behind
+    (success_probability, never the judge's own); ties go to the first listed. None: no plan."""
     judged = [r for r in results if _get(r, "verdict") is not None]
     if not judged:
         return None
 
-    def rank(r: Any) -> tuple[bool, bool, float]:
-        worst = _get(r, "max_constraint_violation")
-        return (worst is None or worst <= HOLD_TOL, _get(r, "verdict") != OUTSIDE, _get(r, "success_probability"))
+    def rank(r: Any) -> tuple[bool, bool, bool, float]:
+        return (not breaks(_get(r, "max_constraint_violation")), _get(r, "verdict") != OUTSIDE,
+                _get(r, "probability_source") == "calibrated", _get(r, "success_probability"))
 
     return max(judged, key=rank)  # max keeps the first of equal ranks
 
@@ -231,7 +247,8 @@ def reassess(rows: list[dict]) -> None:
             continue
         r["success_probability"], r["probability_source"] = stood_behind(
             r.get("predicted_success"), r.get("calibrated_success"), bool(r.get("calibration_covers")))
-        r["verdict"] = verdict_of(r["success_probability"], r["probability_source"], r.get("outside_judge_data"))
+        r["verdict"] = verdict_of(r["success_probability"], r["probability_source"], r.get("outside_judge_data"),
+                                  breaks(r.get("max_constraint_violation")))
 
 
 def infeasible_result(method: str, problem: Problem, env: dict[str, float]) -> PlanResult | None:

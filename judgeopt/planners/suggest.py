@@ -89,7 +89,7 @@ class Suggestion:
             return f"likely without {self.limit}: {p}"
         op = ">=" if self.value > self.current else "<="
         binds = f"; {self.binds}" if self.binds else ""
-        return (f"likely with {self.limit} {op} {self.value:.3g} {self.unit} (now {self.current:g}{binds}): {p}; "
+        return (f"likely with {self.limit} {op} {self.value:g} {self.unit} (now {self.current:g}{binds}): {p}; "
                 f"p = {self.p_at_bound:.2f} at {self.limit} = {self.bound:g} {self.unit}")
 
     def to_json(self) -> dict:
@@ -107,7 +107,21 @@ def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) 
     relaxed = planners.with_limits(**{name: value})
     fastest = next(m for m in relaxed.methods if not spec_of(m).closed_loop)
     r = recommended(relaxed.only(fastest).solve(env, guess=guess))
+    # a screen: the fast planner's p where its soft plan breaks a limit too (the suggestion itself is
+    # planned again by every planner and must be called likely)
     return -1.0 if r is None else r.success_probability
+
+
+def printable(value: float, direction: int, limit: float, digits: int = 3) -> float:
+    """`value` to `digits` significant digits, rounded the way the limit relaxes (up where it is
+    raised, down where lowered) and never past `limit` (the demonstrations' reach): the value a
+    suggestion prints is the one it planned at, and no tighter than the one the search found."""
+    if value == 0 or not math.isfinite(value):
+        return value
+    step = 10.0 ** (math.floor(math.log10(abs(value))) - digits + 1)
+    units = round(value / step, 6)  # 45.3000000001 steps is 45.3, not 46
+    rounded = float(f"{(math.ceil(units) if direction > 0 else math.floor(units)) * step:.{digits}g}")
+    return min(rounded, limit) if direction > 0 else max(rounded, limit)
 
 
 def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult],
@@ -137,14 +151,15 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
                     hi = mid
                 else:
                     lo = mid
+            value = printable(hi, rx.direction, rx.bound)  # planned at the value the suggestion prints
             # a planner whose warm-start planner is asked for too starts from that one's new plan
             started = any(spec_of(m).warm_start in planners.methods for m in planners.methods)
-            relaxed = planners.with_limits(**{rx.name: hi}).solve(env, guess=None if started else guess)
+            relaxed = planners.with_limits(**{rx.name: value}).solve(env, guess=None if started else guess)
         except ProblemError:  # the relaxed limits contradict another one
             continue
         top = recommended(relaxed)
-        if top is not None and top.success_probability >= LIKELY:
-            found.append(Suggestion(rx.name, float(hi), float(current), rx.unit, top, p_bound, rx.bound,
+        if top is not None and top.verdict == "likely":
+            found.append(Suggestion(rx.name, float(value), float(current), rx.unit, top, p_bound, rx.bound,
                                     _binds(p, rx.name, guess)))
     return sorted(found, key=lambda s: s.relative_change)
 
@@ -178,6 +193,6 @@ def _dropped_bounds(planners: Planners, env: dict[str, float], guess) -> list[Su
             top = recommended(planners.with_limits(bounds=rest).solve(env, guess=guess))
         except ProblemError:
             continue
-        if top is not None and top.success_probability >= LIKELY:
+        if top is not None and top.verdict == "likely":
             found.append(Suggestion(f"bound {text}", math.nan, math.nan, "", top, top.success_probability, math.nan))
     return found

@@ -106,7 +106,11 @@ def test_summary_counts_likely_failures_and_overall_likely_where_none_succeeded(
     am, di = s["planners"]
     assert {k: v for k, v in am.items() if k not in ("reliability", "ece", "mean_p")} == {
         "method": "amortized", "plans": 4, "successes": 2, "likely": 2, "likely_failed": 1, "likely_failed_pct": 50.0,
-        "unlikely": 1, "unlikely_succeeded": 1, "outside_judge_data": 1, "calibrated": 3, "success_pct": 50.0}
+        "unlikely": 1, "unlikely_succeeded": 1, "outside_judge_data": 1, "breaks_limits": 0, "calibrated": 3,
+        "success_pct": 50.0}
+    broken = summarise_edge([_row(0, 0.0, "amortized", "breaks a hard limit", 0.97, False)], ("amortized",))
+    assert broken["planners"][0]["breaks_limits"] == 1 and broken["planners"][0]["outside_judge_data"] == 0
+    assert broken["planners"][0]["likely"] == 0
     assert am["mean_p"] == pytest.approx((0.9 + 0.95 + 0.2 + 0.99) / 4)
     assert (di["plans"], di["successes"], di["likely"], di["likely_failed"], di["unlikely"], di["unlikely_succeeded"]) == (
         5, 2, 2, 0, 3, 0)
@@ -125,7 +129,8 @@ def test_summary_counts_likely_failures_and_overall_likely_where_none_succeeded(
     assert (again["settings"], again["environments"], again["none_succeeded"]) == (12, 6, 6)
     assert summarise_edge([], ("direct",))["planners"][0] == {
         "method": "direct", "plans": 0, "successes": 0, "likely": 0, "likely_failed": 0, "likely_failed_pct": None,
-        "unlikely": 0, "unlikely_succeeded": 0, "outside_judge_data": 0, "calibrated": 0, "mean_p": None,
+        "unlikely": 0, "unlikely_succeeded": 0, "outside_judge_data": 0, "breaks_limits": 0, "calibrated": 0,
+        "mean_p": None,
         "success_pct": None, "ece": None, "reliability": []}
 
 
@@ -135,7 +140,7 @@ def test_the_report_names_every_figure():
     md = markdown_edge(s, "T", "judgeopt evaluate edge --n 1")
     assert "### T" in md and "`judgeopt evaluate edge --n 1`" in md
     # ECE: p 0.9 falls in the bin (0.8, 0.9] (observed 0), 0.97 in (0.9, 1] (observed 1): (0.9 + 0.03) / 2
-    assert "| direct | 2 | 1 (50 %) | 2 | 1 (50.0 %) | 0 | 0 | 0 | 2 | 0.935 | 0.465 |" in md
+    assert "| direct | 2 | 1 (50 %) | 2 | 1 (50.0 %) | 0 | 0 | 0 | 0 | 2 | 0.935 | 0.465 |" in md
     assert "1 environments, an edge found in 1 (the limit's value at the edge: 14.0 to 14.0 (median 14.0)); " \
            "2 settings" in md and "said 'likely' in 1 of them" in md
     fig = plot_edge(s, rows, "T")

@@ -162,7 +162,8 @@ def test_solve_with_a_freshly_trained_conditioned_generator(tmp_path, capsys):
     rc = main(["solve", "--qdot-max", "0.55", "--method", "amortized", "--models", str(models), "--json",
                "--no-simulate"])
     res = json.loads(capsys.readouterr().out)
-    assert rc == 0 and res["generator"] == str(out) and res["notes"] == []
+    # a 3-epoch generator may break a limit (its verdict then says so, exit 4): the generator is what is tested
+    assert res["generator"] == str(out) and res["notes"] == [] and rc == (0 if res["verdict"] == "likely" else 4)
     (r,) = res["results"]
     assert r["method"] == "amortized" and len(r["y"]) == 31 and 0 <= r["predicted_success"] <= 1
     # outside the ranges: no generator (the shipped per-limit ones live in another folder)

@@ -74,6 +74,35 @@ def test_suggest_finds_the_smallest_relaxation_that_makes_a_plan_likely():
     assert "likely with f_max >= " in found[0].text() and found[0].to_json()["limit"] == "f_max"
 
 
+def test_a_suggestion_quotes_the_p_planned_at_the_value_it_prints():
+    """A threshold off the printed grid (20.0137 N, printed to 3 digits): rounding it to the nearest
+    printable value (20.0) would quote a p planned at 20.0137+ for a limit where p is 0.34."""
+    threshold = 20.0137
+
+    class Steep(FakePlanners):
+        def solve(self, env, simulator=None, guess=None):
+            self.calls.append(self.problem.f_max)
+            return [assess(_result(float(1.0 / (1.0 + np.exp(-50.0 * (self.problem.f_max - threshold))))))]
+
+    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
+    planners = Steep(problem)
+    found = suggest(planners, {"y_obj": 0.2, "mu": 2.0}, planners.solve({}))
+    s = next(x for x in found if x.limit == "f_max")
+    assert f">= {s.value:g} N" in s.text() and s.value == float(f"{s.value:.3g}")  # printed as planned
+    assert s.value >= threshold
+    again = planners.with_limits(f_max=s.value).solve({})[0]
+    assert s.result.success_probability == again.success_probability >= LIKELY
+    assert f"p = {again.success_probability:.2f}" in s.text()
+
+
+def test_printable_values_round_the_way_the_limit_relaxes_and_stay_within_reach():
+    from judgeopt.planners.suggest import printable
+
+    assert printable(20.0137, +1, 40.0) == 20.1 and printable(20.0137, -1, 0.0) == 20.0
+    assert printable(0.45301, +1, 1.0) == 0.454 and printable(0.453, +1, 1.0) == 0.453  # exact stays
+    assert printable(7.4349, -1, 5.0) == 7.43 and printable(0.99953, +1, 0.9996) == 0.9996  # not past reach
+
+
 def test_suggest_says_nothing_when_no_relaxation_helps(monkeypatch):
     problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
     monkeypatch.setattr(suggest_module, "LIKELY", 1.01)  # nothing is ever likely
@@ -160,6 +189,38 @@ def test_the_plan_to_run_holds_the_limits_first_then_has_the_highest_p():
     assert overall_verdict([PlanResult("direct", {}, None, None, "infeasible", 0.0), likely]) == "infeasible"
     rows = [r.to_json() for r in (breaking, unlikely)]  # the same rule on evaluation rows
     assert recommended(rows)["method"] == "direct" and overall_verdict(rows) == "unlikely"
+
+
+def test_a_plan_that_breaks_a_hard_limit_is_never_likely_whatever_its_p():
+    from judgeopt.planners.result import BREAKS, HOLD_TOL, reassess
+
+    over = _planned("amortized", 0.99, violation=48.0)  # over --fdot-max by 48 N/s
+    assert over.verdict == BREAKS and over.to_json()["verdict"] == BREAKS
+    checked = _planned("amortized", 0.2, violation=48.0, calibrated_success=0.97, calibration_covers=True)
+    assert checked.probability_source == "calibrated" and checked.verdict == BREAKS
+    assert _planned("amortized", 0.99, violation=HOLD_TOL).verdict == "likely"  # at the tolerance it holds
+    row = over.to_json()
+    row["verdict"] = "likely"
+    reassess([row])
+    assert row["verdict"] == BREAKS
+
+
+def test_the_plan_to_run_is_ranked_by_the_p_stood_behind_calibrated_before_the_judges_own():
+    from judgeopt.planners.result import overall_verdict, recommended
+
+    # CMA-ES at the judge's 0.999997, never checked, against a direct plan calibrated at 0.9 (judge 0.6)
+    cmaes = _planned("cmaes", 0.999997)
+    direct = _planned("direct", 0.6, calibrated_success=0.9, calibration_covers=True)
+    assert recommended([cmaes, direct]) is direct and recommended([direct, cmaes]) is direct
+    # the judge and the calibration rank two plans in opposite orders: the calibrated p decides
+    a = _planned("amortized", 0.95, calibrated_success=0.7, calibration_covers=True)
+    b = _planned("direct", 0.7, calibrated_success=0.8, calibration_covers=True)
+    assert recommended([a, b]) is b and recommended([b, a]) is b
+    # a checked 'unlikely' goes before an unchecked 'likely', and the verdict is the checked one
+    low = _planned("direct", 0.9, calibrated_success=0.3, calibration_covers=True)
+    assert recommended([cmaes, low]) is low and overall_verdict([cmaes, low]) == "unlikely"
+    rows = [r.to_json() for r in (cmaes, a, b)]  # the same on evaluation rows
+    assert recommended(rows)["method"] == "direct"
 
 
 def test_outside_the_judges_data_the_verdict_says_so_unless_a_calibration_checked_it():
@@ -280,10 +341,10 @@ def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
 
 
 def test_a_results_json_carries_its_verdict_and_where_its_p_comes_from():
-    r = _planned("direct", 0.7, violation=0.002, calibrated_success=0.4, calibration_covers=True)
+    r = _planned("direct", 0.7, violation=0.0002, calibrated_success=0.4, calibration_covers=True)
     d = r.to_json()
     assert (d["method"], d["predicted_success"], d["success_probability"], d["probability_source"], d["verdict"]) == (
         "direct", 0.7, 0.4, "calibrated", "unlikely")
-    assert d["max_constraint_violation"] == 0.002 and d["worst_constraint"] == "qdot_max"
+    assert d["max_constraint_violation"] == 0.0002 and d["worst_constraint"] == "qdot_max"
     assert d["calibration_covers"] is True and d["channels"] == ["y", "ydot", "f"] and len(d["t"]) == len(d["y"])
     assert d["units"]["t"] == "s" and d["environment"] == {"y_obj": 0.2, "mu": 2.0}
