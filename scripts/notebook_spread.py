@@ -7,9 +7,10 @@ tenfold per epoch, and after ~15 epochs the two trainings are as unlike as two s
 can do to a figure, and tests/test_notebooks.py compares such figures within that spread.
 
 Each run executes the notebook with every `TrainConfig(..., seed=SEED ...)` given `seed=SEED + k`
-(the data the notebook makes are unchanged) and stores its masked outputs, one JSON per run
-(resumable: a run already stored is not repeated). Then the figures declared in
-tests/test_notebooks.py are summarised per notebook: min, median, max and standard deviation.
+(the data the notebook makes are unchanged) and stores its masked outputs, one JSON per run under a
+digest of the notebook's code (resumable: a run of the same code already stored is not repeated).
+Then the figures declared in tests/test_notebooks.py are summarised per notebook: min, median, max
+and standard deviation.
 
     .venv/bin/python scripts/notebook_spread.py notebooks/03_your_own_task.ipynb --runs 10
 """
@@ -17,6 +18,7 @@ tests/test_notebooks.py are summarised per notebook: min, median, max and standa
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import re
 import statistics
@@ -46,7 +48,14 @@ def perturbed(path: Path, k: int) -> nbformat.NotebookNode:
     return nb
 
 
+def code_digest(path: Path) -> str:
+    """Of the notebook's code as committed: a stored run of other code is never reused."""
+    nb = nbformat.read(path, as_version=4)
+    return hashlib.sha256("\0".join(c.source for c in nb.cells if c.cell_type == "code").encode()).hexdigest()[:12]
+
+
 def run(path: Path, k: int, store: Path) -> list:
+    """The masked outputs of the notebook run with its trainings seeded SEED + k (stored, or made and stored)."""
     target = store / f"seed_{k}.json"
     if target.exists():
         return json.loads(target.read_text())
@@ -66,7 +75,7 @@ def main() -> None:
     args = ap.parse_args()
     for path in args.notebooks:
         path = path.resolve()
-        store = args.out / path.stem
+        store = args.out / path.stem / code_digest(path)
         store.mkdir(parents=True, exist_ok=True)
         runs = []
         for k in range(args.runs):
@@ -78,6 +87,7 @@ def main() -> None:
                 sd = statistics.stdev(values)
                 print(f"  {fig.name} #{i + 1}: min {min(values):.4g}, median {statistics.median(values):.4g}, "
                       f"max {max(values):.4g}, sd {sd:.3g}; declared {fig.between[0]:g}-{fig.between[1]:g}")
+
 
 if __name__ == "__main__":
     main()
