@@ -35,7 +35,7 @@ LEGEND = ("judge: the judge's own probability that the plan succeeds; success p:
           "behind: 'calibrated' where a calibration fitted on replayed outcomes of this planner covers the plan "
           "(limits, environment and the judge's p), else the judge's, marked uncalibrated; verdict: likely at success "
           f"p >= {LIKELY}, else unlikely, or '{OUTSIDE}' where the request lies outside the ranges the judge "
-          "learnt from and no calibration covers it, or '{BREAKS}' where the plan breaks one by more than "
+          f"learnt from and no calibration covers it, or '{BREAKS}' where the plan breaks a hard limit by more than "
           f"{HOLD_TOL:g} in its units, whatever its p; simulated: the plan replayed in the physics simulation")
 
 

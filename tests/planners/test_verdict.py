@@ -199,6 +199,9 @@ def test_a_plan_that_breaks_a_hard_limit_is_never_likely_whatever_its_p():
     checked = _planned("amortized", 0.2, violation=48.0, calibrated_success=0.97, calibration_covers=True)
     assert checked.probability_source == "calibrated" and checked.verdict == BREAKS
     assert _planned("amortized", 0.99, violation=HOLD_TOL).verdict == "likely"  # at the tolerance it holds
+    from judgeopt.planners.result import LEGEND
+
+    assert f"'{BREAKS}' where the plan breaks a hard limit by more than {HOLD_TOL:g}" in LEGEND  # --explain says so
     row = over.to_json()
     row["verdict"] = "likely"
     reassess([row])
