@@ -16,14 +16,13 @@ import logging
 import os
 import shutil
 import subprocess
-import tempfile
 from pathlib import Path
 from typing import Any, Sequence
 
 import casadi as cs
 
 from judgeopt.errors import Missing
-from judgeopt.files import publish_dir
+from judgeopt.files import CACHE_FIX, make_temp_dir, publish_dir
 
 log = logging.getLogger("judgeopt")
 
@@ -73,8 +72,7 @@ def compiled_library(functions: Sequence[cs.Function], where: Path, name: str, e
         raise CompileError("gcc is not on PATH")
     if note:
         log.info(note)
-    where.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{where.name}.", dir=where.parent))
+    tmp = make_temp_dir(where, CACHE_FIX)  # a cache that cannot be written: one line naming $JUDGEOPT_CACHE
     try:
         cg = cs.CodeGenerator(f"{name}.c", {"with_header": False})
         for f in functions:

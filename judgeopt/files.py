@@ -156,15 +156,31 @@ def _write_failure(exc: BaseException, *paths: Path) -> bool:
     return exc.errno in _WHY and (exc.filename is None or Path(exc.filename) in paths)
 
 
-def make_temp_dir(path: str | Path) -> Path:
-    """A temporary folder beside `path` (for a writer that writes a folder, e.g. a ROS bag), made with
-    `path`'s folder; a path that cannot be written is an OutputWriteError naming `path`."""
+def make_temp_dir(path: str | Path, flag: str | None = None) -> Path:
+    """A temporary folder beside `path` (for a writer that writes a folder, e.g. a ROS bag or a built
+    library), made with `path`'s folder; a path that cannot be written is an OutputWriteError naming
+    `path` (and `flag`, what chose it, in the fix)."""
     path = Path(path)
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         return Path(tempfile.mkdtemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp"))
     except OSError as exc:
-        raise cannot_write(path, exc) from None
+        raise cannot_write(path, exc, flag) from None
+
+
+#: what a cache folder that cannot be written tells the user to change
+CACHE_FIX = f"${CACHE_ENV}"
+
+
+def make_cache_dir(path: str | Path) -> Path:
+    """`path`, a folder of the build cache, made where missing: one that cannot be made is one line
+    saying to point $JUDGEOPT_CACHE elsewhere (OutputWriteError, exit 5), not a PermissionError."""
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise cannot_write(path, exc, CACHE_FIX) from None
+    return path
 
 
 def shipped(path: str | Path) -> bool:

@@ -53,3 +53,31 @@ def test_temporary_files_are_made_in_one_place():
             if isinstance(node, ast.Attribute) and node.attr in makers and path.name != "files.py":
                 found.append(f"{path.relative_to(REPO)}:{node.lineno}")
     assert not found
+
+
+def test_a_build_cache_that_cannot_be_written_is_one_line_naming_judgeopt_cache(tmp_path):
+    """A file where the cache folder belongs (as root, permissions would not stop a write): the
+    cache's folder, a library's temporary build folder and the command all say to move the cache."""
+    import subprocess
+    import sys
+
+    import casadi as cs
+
+    from judgeopt.cbuild import compiled_library
+    from judgeopt.errors import ExitCode
+    from judgeopt.files import OutputWriteError, make_cache_dir
+
+    blocker = tmp_path / "afile"
+    blocker.write_text("")
+    with pytest.raises(OutputWriteError, match=r"afile is a file, not a folder; .* with \$JUDGEOPT_CACHE") as exc:
+        make_cache_dir(blocker / "cache")
+    assert exc.value.exit_code == ExitCode.BAD_INPUT
+    x = cs.SX.sym("x")
+    with pytest.raises(OutputWriteError, match=r"\$JUDGEOPT_CACHE"):
+        compiled_library([cs.Function("double_it", [x], [2 * x])], blocker / "cache" / "k", "double_it")
+    res = subprocess.run([sys.executable, "-m", "judgeopt", "solve", "--qdot-max", "0.4", "--method", "direct",
+                          "--no-simulate", "--no-suggest"], capture_output=True, text=True,
+                         env={**os.environ, "JUDGEOPT_CACHE": str(blocker / "cache")})
+    assert res.returncode == ExitCode.BAD_INPUT and "Traceback" not in res.stderr, res.stderr[-2000:]
+    assert res.stderr.splitlines()[-1].startswith(f"judgeopt solve: error: cannot write {blocker}/cache/")
+    assert res.stderr.splitlines()[-1].endswith("choose a writable folder with $JUDGEOPT_CACHE")

@@ -47,7 +47,6 @@ import logging
 import os
 import shutil
 import sys
-import tempfile
 import time
 import warnings
 from dataclasses import dataclass, field
@@ -61,7 +60,7 @@ from torch import nn
 
 from judgeopt.cbuild import CompileError, compiled_library, source_digest
 from judgeopt.errors import Missing
-from judgeopt.files import publish_dir
+from judgeopt.files import CACHE_FIX, make_temp_dir, publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
 from judgeopt.judge.backends import BACKENDS, DEFAULT_BACKEND, GRAPH_BACKENDS
 from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
@@ -291,7 +290,7 @@ def _l4casadi_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, Pat
     if (where / "complete.json").exists() and lib.exists():
         return cs.external(name, str(lib)), True, where
     log.info("building the judge library (once per judge, about 15 s; cached in %s)", where)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
+    tmp = make_temp_dir(where, CACHE_FIX)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", (DeprecationWarning, UserWarning))  # torch.jit deprecations, TF32 notes
@@ -335,7 +334,7 @@ def _l4casadi32_function(judge: Judge, root: Path) -> tuple[cs.Function, bool, P
         if shutil.which("gcc") is None:
             raise CasadiBuildError("no C compiler: gcc is not on PATH")
         log.info("building the judge library in float32 (once per judge, a few seconds; cached in %s)", where)
-        tmp = Path(tempfile.mkdtemp(prefix=f".{key}.", dir=_mkdir(where.parent)))
+        tmp = make_temp_dir(where, CACHE_FIX)
         try:
             _build_l4casadi32(l4casadi, model, name, tmp, where, _n_traj(judge) + judge.config.n_env)
             (tmp / "complete.json").write_text(json.dumps({"backend": "l4casadi32", "l4casadi": version,
@@ -564,11 +563,6 @@ def _cache_key(judge: Judge, backend: str, model: nn.Module | None = None) -> st
     versions = {"compiled": cs.__version__, "l4casadi": f"{ver}|split{_SPLIT_BITS}", "l4casadi32": f"{ver}|float32"}
     code = source_digest(*_generating_code(judge, backend, model))
     return hashlib.sha256(f"{model_hash(judge)}|{backend}|{versions[backend]}|{code}".encode()).hexdigest()[:20]
-
-
-def _mkdir(p: Path) -> Path:
-    p.mkdir(parents=True, exist_ok=True)
-    return p
 
 
 # -- casadi.Callback around torch autograd --------------------------------------------------

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from judgeopt.errors import Missing
-from judgeopt.files import atomic_write, cache_dir as default_cache_dir
+from judgeopt.files import atomic_write, cache_dir as default_cache_dir, make_cache_dir
 
 
 #: Wrist inertia tensors (kg m^2, diagonal in the link frame) replacing example-robot-data's.
@@ -198,8 +198,7 @@ def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None =
     src = src.replace("package://", str(share) + "/")
     if wrist_inertia == "universal_robots":
         src = correct_wrist_inertia(src)
-    cache = Path(cache_dir or default_cache_dir())
-    cache.mkdir(parents=True, exist_ok=True)
+    cache = make_cache_dir(cache_dir or default_cache_dir())
     verts = blade_vertices(g)
     mesh = cache / f"blade_{hashlib.sha1(verts.tobytes()).hexdigest()[:12]}.obj"
     if not mesh.exists():
