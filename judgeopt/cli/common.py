@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import re
 import shlex
 import sys
@@ -200,6 +201,28 @@ def plugins_given(argv: list[str] | None = None) -> list[str]:
     args = argv if argv is not None else (_ARGV if _ARGV is not None else sys.argv[1:])
     given = [b for a, b in zip(args, args[1:]) if a == "--plugin"]
     return given + [a.partition("=")[2] for a in args if a.startswith("--plugin=")]
+
+
+def add_plugin_option(p: argparse.ArgumentParser) -> None:
+    """--plugin MODULE, for every command that plans (its modules' `register(...)` lines add planners)."""
+    from judgeopt.planners.base import PLUGINS_ENV
+
+    p.add_argument("--plugin", action="append", metavar="MODULE",
+                   help=f"import MODULE first (a module name, found on the Python path or in the current folder): its "
+                   f"judgeopt.planners.base.register(...) lines add --method(s) choices; repeatable; ${PLUGINS_ENV} "
+                   "(comma-separated modules) names plugins for every command that plans")
+
+
+def use_plugins(modules: list[str] | None) -> None:
+    """Import the --plugin modules, and name them in $JUDGEOPT_PLUGINS for the worker processes the
+    command starts (a worker imports them when it meets a planner it does not know)."""
+    if not modules:
+        return
+    from judgeopt.planners.base import PLUGINS_ENV, load_plugins
+
+    load_plugins(modules)
+    given = [m for m in os.environ.get(PLUGINS_ENV, "").split(",") if m]
+    os.environ[PLUGINS_ENV] = ",".join(dict.fromkeys([*given, *modules]))
 
 
 class PlannerChoices:

@@ -387,7 +387,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
-    from judgeopt.cli.common import PlannerChoices
+    from judgeopt.cli.common import PlannerChoices, add_plugin_option
     from judgeopt.cli.planners import add_limit_range_arguments
     from judgeopt.planners.base import default_planners
 
@@ -439,6 +439,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "q̇_max = 0.4)")
     e.add_argument("--methods", nargs="+", choices=PlannerChoices(),
                    help="planners to include (default all of the table's)")
+    add_plugin_option(e)
     e.add_argument("--rows", nargs="+", metavar="NAME", help="only these rows (by name)")
     e.add_argument("--judge", metavar="STEM", help="run every planner row against this judge instead (rows renamed)")
     e.add_argument("--judge-model", dest="judge", help=argparse.SUPPRESS)  # the name older scripts use
@@ -464,6 +465,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--methods", nargs="+", choices=PlannerChoices(),
                    help="fit only these planners' settings (default: every planner in the folders); a planner left "
                    "out reports the judge's own probability")
+    add_plugin_option(c)
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "
                    "limits in the folders (a sweep's), with q̇ and force limits as inputs beside the environment: it "
                    "then also covers limits between those it saw")

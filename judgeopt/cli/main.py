@@ -16,7 +16,8 @@ from typing import Iterator
 from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, env_range, env_values, jobs_option, missing_extra,
-                                 out_option, positive, print_error, seed_option, set_argv, threads_option, value_range, wants_json)
+                                 out_option, positive, print_error, seed_option, set_argv, threads_option, use_plugins, value_range,
+                                 wants_json)
 from judgeopt.cli.examples import example_perturbation
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
@@ -350,6 +351,7 @@ def _main(argv: list[str] | None) -> int:
 
         set_threads(args.threads)
     try:
+        use_plugins(getattr(args, "plugin", None))
         with _quiet_simulator(getattr(args, "quiet", False)):
             return int(args.func(args))
     except Exception as exc:

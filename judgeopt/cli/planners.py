@@ -10,7 +10,8 @@ from pathlib import Path
 from typing import Any, Callable
 
 
-from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, env_assignment, figure_path,
+from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add_plugin_option, command_line, env_assignment,
+                                 figure_path,
                                  file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
 from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
@@ -517,17 +518,13 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                        "Exit 3 if the limits are infeasible, 4 if no plan is likely to succeed.")
     add_problem_arguments(s)
     from judgeopt.cli.common import PlannerChoices
-    from judgeopt.planners.base import GROUP_ALIASES, GROUPS, PLUGINS_ENV, REGISTRY, WARM_STARTS, default_planners
+    from judgeopt.planners.base import GROUP_ALIASES, GROUPS, REGISTRY, WARM_STARTS, default_planners
 
     each = "; ".join(f"{n}: {s.description}" for n, s in REGISTRY.items())
     s.add_argument("--method", choices=PlannerChoices(extra=(*GROUPS, *GROUP_ALIASES)), default="default",
                    help=(f"default (the default): {' and '.join(default_planners())}; all: every planner; or one: "
                          f"{each}; or a plugin's (--plugin); both: the older name of default").replace("%", "%%"))
-    s.add_argument("--plugin", action="append", metavar="MODULE",
-                   help=f"import MODULE first (a module name, found on the Python path or in the current folder): its "
-                   f"judgeopt.planners.base.register(...) lines add --method choices; repeatable; ${PLUGINS_ENV} "
-                   "(comma-separated modules) names plugins for every command that plans (evaluate, calibrate and "
-                   "refine too)")
+    add_plugin_option(s)
     s.add_argument("--simulate-env", action="append", metavar="NAME=VALUE",
                    help=f"simulate in a world that differs from the one planned for (e.g. {example_assignment()}: "
                    "a value other than the planners were told); repeatable (default: the world planned for)")

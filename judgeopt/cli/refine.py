@@ -117,12 +117,13 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     add_problem_arguments(r)
     r.add_argument("--rounds", type=positive, default=3, help="rounds of plan, replay, fine-tune")
     r.add_argument("--n", type=int, default=150, help="environments per round")
-    from judgeopt.cli.common import PlannerChoices
+    from judgeopt.cli.common import PlannerChoices, add_plugin_option
     from judgeopt.refine.loop import judge_only_planners
 
     r.add_argument("--methods", nargs="+", choices=PlannerChoices(open_loop=True),
                    help="planners whose plans are replayed and added (default: "
                    f"{' and '.join(judge_only_planners())}, the default ones that need no generator)")
+    add_plugin_option(r)
     r.add_argument("--train", default="data/train.h5", metavar="FILE", help="the demonstrations the judge was trained on")
     r.add_argument("--test", default="data/test.h5", metavar="FILE", help="held-out demonstrations to score each new judge")
     r.add_argument("--generator", metavar="STEM", help="generator to warm-start the direct solve and to fine-tune")

@@ -173,3 +173,22 @@ def test_plan_result_judges_and_measures_the_plan(problem):
         plan_result(planner, env, type(move)(move.dt, move.values[:10], move.channels), started=0.0)
     with pytest.raises(ProblemError, match="the judge reads y_obj"):
         judge_plans(judge, [move], {"mu": 1.0})
+
+
+def test_every_command_that_plans_takes_plugin_and_hands_it_to_its_workers(plugin, monkeypatch):
+    """evaluate, calibrate and refine take --plugin as solve does, and name the module in
+    $JUDGEOPT_PLUGINS for the worker processes they start (which import it when they meet its planner)."""
+    import os
+
+    from judgeopt.cli import evaluate, refine
+
+    module, name = plugin
+    monkeypatch.setenv(PLUGINS_ENV, "")
+    seen = {}
+    for mod, cmd in ((evaluate, "cmd_evaluate"), (evaluate, "cmd_calibrate"), (refine, "cmd_refine")):
+        monkeypatch.setattr(mod, cmd, lambda args, cmd=cmd: seen.setdefault(cmd, args.methods) and 0)
+    assert main(["evaluate", "planners", "--plugin", module, "--methods", name, "direct"]) == 0
+    assert main(["calibrate", "somewhere", "--plugin", module, "--methods", name]) == 0
+    assert main(["refine", "--methods", name, "--plugin", module]) == 0
+    assert seen == {"cmd_evaluate": [name, "direct"], "cmd_calibrate": [name], "cmd_refine": [name]}
+    assert os.environ[PLUGINS_ENV] == module  # once, for the workers
