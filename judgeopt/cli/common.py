@@ -4,6 +4,7 @@ every command spells the same way (parent parsers), argument types, the command 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import os
@@ -11,6 +12,7 @@ import re
 import shlex
 import sys
 from pathlib import Path
+from typing import Iterator
 
 from judgeopt.errors import EXIT_MEANINGS, ExitCode, JudgeoptError  # noqa: F401 (re-exported)
 
@@ -184,9 +186,18 @@ QUIET = _flag("--quiet", "no progress bars or progress messages")
 _ARGV: list[str] | None = None  # the arguments `main` was called with (in-process calls: tests, notebooks)
 
 
-def set_argv(argv: list[str] | None) -> None:
+def set_argv(argv: list[str] | None) -> list[str] | None:
+    """Record the arguments of the command now running; returns those recorded before (main()
+    puts them back when its command ends: a process that goes on reads no stale --plugin)."""
     global _ARGV
-    _ARGV = list(argv) if argv is not None else sys.argv[1:]
+    before, _ARGV = _ARGV, (list(argv) if argv is not None else sys.argv[1:])
+    return before
+
+
+def restore_argv(before: list[str] | None) -> None:
+    """What set_argv returned, recorded again."""
+    global _ARGV
+    _ARGV = before
 
 
 def command_line() -> str:
@@ -213,16 +224,27 @@ def add_plugin_option(p: argparse.ArgumentParser) -> None:
                    "(comma-separated modules) names plugins for every command that plans")
 
 
-def use_plugins(modules: list[str] | None) -> None:
-    """Import the --plugin modules, and name them in $JUDGEOPT_PLUGINS for the worker processes the
-    command starts (a worker imports them when it meets a planner it does not know)."""
+@contextlib.contextmanager
+def using_plugins(modules: list[str] | None) -> Iterator[None]:
+    """Import the --plugin modules, and name them in $JUDGEOPT_PLUGINS while the command runs, for
+    the worker processes it starts (a worker imports them when it meets a planner it does not know);
+    the environment is as it was afterwards (main() may be called in a process that goes on)."""
     if not modules:
+        yield
         return
     from judgeopt.planners.base import PLUGINS_ENV, load_plugins
 
     load_plugins(modules)
-    given = [m for m in os.environ.get(PLUGINS_ENV, "").split(",") if m]
+    before = os.environ.get(PLUGINS_ENV)
+    given = [m for m in (before or "").split(",") if m.strip()]
     os.environ[PLUGINS_ENV] = ",".join(dict.fromkeys([*given, *modules]))
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(PLUGINS_ENV, None)
+        else:
+            os.environ[PLUGINS_ENV] = before
 
 
 class PlannerChoices:

@@ -16,8 +16,8 @@ from typing import Iterator
 from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, env_range, env_values, jobs_option, missing_extra,
-                                 out_option, positive, print_error, seed_option, set_argv, threads_option, use_plugins, value_range,
-                                 wants_json)
+                                 out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
+                                 using_plugins, value_range, wants_json)
 from judgeopt.cli.examples import example_perturbation
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
@@ -331,6 +331,7 @@ def main(argv: list[str] | None = None) -> int:
     from judgeopt.errors import interrupted
 
     start = len(files.WRITTEN)
+    before = set_argv(argv)
     try:
         return _main(argv)
     except KeyboardInterrupt:
@@ -338,10 +339,11 @@ def main(argv: list[str] | None = None) -> int:
         print_error(f"judgeopt {command}" if command else "judgeopt", interrupted(command, _written_since(start)),
                     ExitCode.INTERRUPTED)
         return ExitCode.INTERRUPTED
+    finally:
+        restore_argv(before)
 
 
 def _main(argv: list[str] | None) -> int:
-    set_argv(argv)
     warnings.showwarning = _show_warning
     args = build_parser().parse_args(argv)
     command = f"judgeopt {args.command}"
@@ -351,8 +353,7 @@ def _main(argv: list[str] | None) -> int:
 
         set_threads(args.threads)
     try:
-        use_plugins(getattr(args, "plugin", None))
-        with _quiet_simulator(getattr(args, "quiet", False)):
+        with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)):
             return int(args.func(args))
     except Exception as exc:
         code = exit_code(exc)

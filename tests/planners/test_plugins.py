@@ -186,9 +186,12 @@ def test_every_command_that_plans_takes_plugin_and_hands_it_to_its_workers(plugi
     monkeypatch.setenv(PLUGINS_ENV, "")
     seen = {}
     for mod, cmd in ((evaluate, "cmd_evaluate"), (evaluate, "cmd_calibrate"), (refine, "cmd_refine")):
-        monkeypatch.setattr(mod, cmd, lambda args, cmd=cmd: seen.setdefault(cmd, args.methods) and 0)
+        monkeypatch.setattr(mod, cmd, lambda args, cmd=cmd: seen.setdefault(cmd, (args.methods, os.environ[PLUGINS_ENV]))
+                            and 0)
     assert main(["evaluate", "planners", "--plugin", module, "--methods", name, "direct"]) == 0
     assert main(["calibrate", "somewhere", "--plugin", module, "--methods", name]) == 0
     assert main(["refine", "--methods", name, "--plugin", module]) == 0
-    assert seen == {"cmd_evaluate": [name, "direct"], "cmd_calibrate": [name], "cmd_refine": [name]}
-    assert os.environ[PLUGINS_ENV] == module  # once, for the workers
+    # the module named once in the environment the command's workers inherit, and only while it runs
+    assert seen == {"cmd_evaluate": ([name, "direct"], module), "cmd_calibrate": ([name], module),
+                    "cmd_refine": ([name], module)}
+    assert os.environ[PLUGINS_ENV] == ""
