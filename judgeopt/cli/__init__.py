@@ -21,17 +21,11 @@ try:
     if _held:
         raise KeyboardInterrupt
 except KeyboardInterrupt:  # Ctrl-C while its modules load (the first second): one line and 130, as later on
-    import json as _json
-    import sys as _sys
-
+    from judgeopt.cli.common import command_of as _command_of, print_error as _print_error
     from judgeopt.errors import ExitCode as _ExitCode, interrupted as _interrupted
 
-    _command = next((a for a in _sys.argv[1:] if not a.startswith("-")), None)
-    _where, _message = f"judgeopt{' ' + _command if _command else ''}", _interrupted(_command)
-    if "--json" in _sys.argv[1:]:
-        print(_json.dumps({"error": _message, "exit_code": int(_ExitCode.INTERRUPTED), "command": _where}))
-    else:
-        print(f"{_where}: error: {_message}", file=_sys.stderr)
+    _command = _command_of()
+    _print_error(f"judgeopt{' ' + _command if _command else ''}", _interrupted(_command), _ExitCode.INTERRUPTED)
     raise SystemExit(_ExitCode.INTERRUPTED) from None
 
 __all__ = ["main"]

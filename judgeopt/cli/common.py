@@ -41,7 +41,7 @@ def missing_extra(exc: ModuleNotFoundError) -> str | None:
     extra = EXTRAS.get(root)
     if extra is None:
         return None
-    argv = _ARGV if _ARGV is not None else sys.argv[1:]
+    argv = current_argv()
     without = WITHOUT_EXTRA.get((extra, argv[0] if argv else ""))
     return (f"this needs {root}, which is not installed: pip install 'judgeopt[{extra}]'"
             + (f", or run it with {without}" if without else ""))
@@ -49,7 +49,7 @@ def missing_extra(exc: ModuleNotFoundError) -> str | None:
 
 def wants_json(argv: list[str] | None = None) -> bool:
     """Was --json given? (errors are then one JSON object on stdout, usage errors included)."""
-    return "--json" in (argv if argv is not None else (_ARGV if _ARGV is not None else sys.argv[1:]))
+    return "--json" in (argv if argv is not None else current_argv())
 
 
 def print_error(command: str, message: str, code: int) -> None:
@@ -194,6 +194,32 @@ def set_argv(argv: list[str] | None) -> list[str] | None:
     return before
 
 
+def current_argv() -> list[str]:
+    """The arguments of the command now running (main's, else the process's)."""
+    return _ARGV if _ARGV is not None else sys.argv[1:]
+
+
+def command_of(argv: list[str] | None = None) -> str | None:
+    """The subcommand typed (the first word that is no option), known before anything is parsed."""
+    return next((a for a in (current_argv() if argv is None else argv) if not a.startswith("-")), None)
+
+
+@contextlib.contextmanager
+def env_set(name: str, value: str | None) -> Iterator[None]:
+    """The environment variable `name` set to `value` (None: left as it is) while a command runs, for
+    the worker processes it starts; as it was afterwards (main() may be called in a process that goes on)."""
+    before = os.environ.get(name)
+    if value is not None:
+        os.environ[name] = value
+    try:
+        yield
+    finally:
+        if before is None:
+            os.environ.pop(name, None)
+        else:
+            os.environ[name] = before
+
+
 def restore_argv(before: list[str] | None) -> None:
     """What set_argv returned, recorded again."""
     global _ARGV
@@ -202,14 +228,13 @@ def restore_argv(before: list[str] | None) -> None:
 
 def command_line() -> str:
     """The command as the user typed it, recorded in every file a command writes."""
-    argv = _ARGV if _ARGV is not None else sys.argv[1:]
-    return "judgeopt " + " ".join(shlex.quote(a) for a in argv)
+    return "judgeopt " + " ".join(shlex.quote(a) for a in current_argv())
 
 
 def plugins_given(argv: list[str] | None = None) -> list[str]:
     """The --plugin MODULE values anywhere on the command line, read before the parser reaches
     them (so that `--method NAME --plugin MODULE` finds NAME too)."""
-    args = argv if argv is not None else (_ARGV if _ARGV is not None else sys.argv[1:])
+    args = argv if argv is not None else current_argv()
     given = [b for a, b in zip(args, args[1:]) if a == "--plugin"]
     return given + [a.partition("=")[2] for a in args if a.startswith("--plugin=")]
 
@@ -229,22 +254,12 @@ def using_plugins(modules: list[str] | None) -> Iterator[None]:
     """Import the --plugin modules, and name them in $JUDGEOPT_PLUGINS while the command runs, for
     the worker processes it starts (a worker imports them when it meets a planner it does not know);
     the environment is as it was afterwards (main() may be called in a process that goes on)."""
-    if not modules:
-        yield
-        return
-    from judgeopt.planners.base import PLUGINS_ENV, load_plugins
+    from judgeopt.planners.base import PLUGINS_ENV, load_plugins, plugin_modules
 
-    load_plugins(modules)
-    before = os.environ.get(PLUGINS_ENV)
-    given = [m for m in (before or "").split(",") if m.strip()]
-    os.environ[PLUGINS_ENV] = ",".join(dict.fromkeys([*given, *modules]))
-    try:
+    if modules:
+        load_plugins(modules)
+    with env_set(PLUGINS_ENV, ",".join(plugin_modules(modules)) if modules else None):
         yield
-    finally:
-        if before is None:
-            os.environ.pop(PLUGINS_ENV, None)
-        else:
-            os.environ[PLUGINS_ENV] = before
 
 
 class PlannerChoices:

@@ -6,17 +6,14 @@ import argparse
 import contextlib
 import json
 import logging
-import os
 import sys
 import warnings
 from pathlib import Path
-from typing import Iterator
-
 
 from judgeopt import __version__
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
-                                 check_range, command_line, env_range, env_values, jobs_option, missing_extra,
-                                 out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
+                                 check_range, command_line, command_of, env_range, env_set, env_values, jobs_option,
+                                 missing_extra, out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
                                  using_plugins, value_range, wants_json)
 from judgeopt.cli.examples import example_perturbation
 from judgeopt.errors import JudgeoptError
@@ -260,22 +257,12 @@ def _log_to_stderr(quiet: bool) -> None:
     log.setLevel(logging.WARNING if quiet else logging.INFO)
 
 
-@contextlib.contextmanager
-def _quiet_simulator(quiet: bool) -> Iterator[None]:
+def _quiet_simulator(quiet: bool) -> contextlib.AbstractContextManager:
     """Under --quiet, PyBullet's warnings from C (judgeopt.sim.quiet) are discarded, in worker processes
     too (they inherit the environment variable); set for the command only, so in-process calls do not leak."""
     from judgeopt.sim import QUIET_ENV
 
-    before = os.environ.get(QUIET_ENV)
-    if quiet:
-        os.environ[QUIET_ENV] = "1"
-    try:
-        yield
-    finally:
-        if before is None:
-            os.environ.pop(QUIET_ENV, None)
-        else:
-            os.environ[QUIET_ENV] = before
+    return env_set(QUIET_ENV, "1" if quiet else None)
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -290,11 +277,6 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 
 
 _python_show_warning = warnings.showwarning
-
-
-def _command_of(argv: list[str] | None) -> str | None:
-    """The subcommand typed (the first word that is no option), known before anything is parsed."""
-    return next((a for a in (sys.argv[1:] if argv is None else argv) if not a.startswith("-")), None)
 
 
 def _written_since(start: int) -> list[str]:
@@ -335,7 +317,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return _main(argv)
     except KeyboardInterrupt:
-        command = _command_of(argv)
+        command = command_of(argv)
         print_error(f"judgeopt {command}" if command else "judgeopt", interrupted(command, _written_since(start)),
                     ExitCode.INTERRUPTED)
         return ExitCode.INTERRUPTED
