@@ -16,6 +16,7 @@ from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError
                                  missing_extra, out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
                                  using_plugins, value_range, wants_json)
 from judgeopt.cli.examples import example_perturbation
+from judgeopt.cli.interrupts import held
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
 from judgeopt.tasks import DEFAULT_TASK
@@ -141,6 +142,8 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
     return 0
 
 
+#: the commands that never import torch (listings, plots of data files): the others import it first, holding Ctrl-C
+NO_TORCH = frozenset({"tasks", "plot-data"})
 EXIT_CODES_HELP = "exit codes:\n" + "\n".join(f"  {c.value:<4} {text}" for c, text in EXIT_MEANINGS.items())
 
 
@@ -310,6 +313,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run one command. Ctrl-C (or SIGTERM) at any moment, loading the modules the parser is built
     from included, is one line saying what was written or kept, and exit 130."""
     from judgeopt import files
+    from judgeopt.cli.interrupts import forget_nested_interrupt
     from judgeopt.errors import interrupted
 
     start = len(files.WRITTEN)
@@ -317,6 +321,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return _main(argv)
     except KeyboardInterrupt:
+        forget_nested_interrupt()
         command = command_of(argv)
         print_error(f"judgeopt {command}" if command else "judgeopt", interrupted(command, _written_since(start)),
                     ExitCode.INTERRUPTED)
@@ -330,6 +335,9 @@ def _main(argv: list[str] | None) -> int:
     args = build_parser().parse_args(argv)
     command = f"judgeopt {args.command}"
     _log_to_stderr(getattr(args, "quiet", False))
+    if args.command not in NO_TORCH:
+        with held():  # torch's import is native code throughout: a Ctrl-C inside it aborts the process
+            import torch  # noqa: F401
     if getattr(args, "threads", None) is not None:
         from judgeopt.threads import set_threads
 

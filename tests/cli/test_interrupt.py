@@ -116,3 +116,42 @@ def test_ctrl_c_at_any_moment_of_solve_is_one_line_and_130(tmp_path, how, when):
     assert "Traceback" not in stderr
     assert stderr.splitlines() == ["judgeopt solve: error: interrupted: nothing was written"], stderr
     assert not out.exists() and list(tmp_path.iterdir()) == []
+
+
+# -- the two native traps: Ctrl-C inside an extension's import, and CPython's mark of a nested interrupt ----
+def test_a_ctrl_c_while_held_is_raised_when_the_block_ends():
+    from judgeopt.cli.interrupts import held
+
+    finished = []
+    with pytest.raises(KeyboardInterrupt):
+        with held():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)  # the handler runs between bytecodes: here it only records the signal
+            finished.append(True)
+    assert finished == [True]
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+_NESTED = """
+import ctypes, sys
+api = ctypes.pythonapi
+api.PyRun_String.restype = ctypes.py_object
+api.PyRun_String.argtypes = [ctypes.c_char_p, ctypes.c_int, ctypes.py_object, ctypes.py_object]
+try:  # as an extension's code run through PyRun_String (torch's import) meets a Ctrl-C
+    api.PyRun_String(b"raise KeyboardInterrupt", 257, {}, {})
+except KeyboardInterrupt:
+    if sys.argv[1:] == ["forget"]:
+        from judgeopt.cli.interrupts import forget_nested_interrupt
+        forget_nested_interrupt()
+sys.exit(130)
+"""
+
+
+def test_a_handled_nested_interrupt_exits_130_not_by_sigint_under_python_m(tmp_path):
+    """Under `python -m`, CPython kills itself with SIGINT at exit where a KeyboardInterrupt once
+    left a PyRun_* call, handled or not (exit -2 instead of 130: the flaky `solve` Ctrl-C)."""
+    (tmp_path / "nested_ctrl_c.py").write_text(_NESTED)
+    run = lambda *a: subprocess.run([sys.executable, "-m", "nested_ctrl_c", *a], cwd=tmp_path,  # noqa: E731
+                                    capture_output=True, timeout=60).returncode
+    assert run() == -signal.SIGINT  # the trap is real on this Python
+    assert run("forget") == 130
