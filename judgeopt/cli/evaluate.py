@@ -12,12 +12,14 @@ from typing import Any
 from judgeopt.cli.common import (CLIError, QUIET, env_range, file_path, floats, jobs_option, name_values, out_option, positive,
                                  seed_option, threads_option, value_range)
 from judgeopt.files import check_writable
+from judgeopt.verdict.risk import CONFIDENCE, RISK
+
 
 def _table_names() -> list[str]:
     """`planners`, `sweep`, `robustness` and every task's own tables (the scoop's table4, table5, compare)."""
     from judgeopt.tasks import get_task, task_names
 
-    return ["planners", "sweep", "edge", "robustness", "trials"] + sorted({name for t in task_names() for name in get_task(t).tables()})
+    return ["planners", "sweep", "edge", "band", "robustness", "trials"] + sorted({name for t in task_names() for name in get_task(t).tables()})
 
 
 def _default_problem(table: str) -> str:
@@ -54,11 +56,17 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         raise CLIError(f"--edge-span {args.edge_span[0]:g},{args.edge_span[1]:g}: need LO < HI")
     if args.trials is not None and args.table != "trials":
         raise CLIError("--trials: only for `judgeopt evaluate trials`")
+    given = [o for o, v in (("--band", args.band), ("--constrained", args.constrained), ("--ensemble", args.ensemble))
+             if v is not None]
+    if given and args.table != "band":
+        raise CLIError(f"{', '.join(given)}: only for `judgeopt evaluate band`")
     check_writable([args.out or f"out/evaluate/{args.table}"])  # before any plan is made
     if args.table == "sweep":
         return cmd_sweep(args)
     if args.table == "edge":
         return cmd_edge(args)
+    if args.table == "band":
+        return cmd_band(args)
     if args.table == "robustness":
         return cmd_robustness(args)
     if args.table == "trials":
@@ -191,6 +199,35 @@ def cmd_edge(args: argparse.Namespace) -> int:
     print(f"wrote {stem.with_suffix('.json')}")
     per = [{k: v for k, v in s.items() if k != "reliability"} for s in summary["planners"]]
     return _report(args, stem, markdown_edge(summary, title, command), per, plot_edge(summary, rows, title), [])
+
+
+def cmd_band(args: argparse.Namespace) -> int:
+    from judgeopt.evaluate.band import BandConfig, default_band, markdown_band, plot_band, rescore, run_band, summarise_band
+    from judgeopt.files import atomic_write, resolve
+    from judgeopt.planners.base import default_planners
+    from judgeopt.planners.calibration import load_evidence
+
+    problem = _problem(args)
+    band = default_band(problem.task) if not args.band else BandConfig(tuple((k, lo, hi) for k, (lo, hi) in args.band))
+    cfg = dataclasses.replace(band, constrained=0.3 if args.constrained is None else args.constrained)
+    methods = tuple(args.methods or default_planners())
+    out = Path(args.out or "out/evaluate/band")
+    calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
+    path = args.calibration or (problem.calibration if calibrators else None)
+    evidence = load_evidence(resolve(path)) if path else {}
+    rows = run_band(problem, cfg, methods, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
+                    chunk=args.chunk, models_dir=args.models, ensemble=args.ensemble, progress=not args.quiet)
+    rescore(rows, calibrators, evidence, problem.env_names, args.risk)
+    summary = summarise_band(rows, methods)
+    ranges = ", ".join(f"{k} {lo:g}-{hi:g}" for k, lo, hi in cfg.ranges)
+    title = (f"The verdict across the edge band: {problem.name}, {ranges}, {100 * cfg.constrained:g} % constrained; "
+             f"risk {100 * args.risk:g} %; seed {args.seed}; judge {problem.judge}")
+    stem = out / "band"
+    atomic_write(stem.with_suffix(".json"), json.dumps(summary, indent=1) + "\n")
+    print(f"wrote {stem.with_suffix('.json')}")
+    per = [{k: v for k, v in s.items() if k != "reliability"} for s in summary["planners"]]
+    command = "judgeopt evaluate " + " ".join(_argv(args))
+    return _report(args, stem, markdown_band(summary, title, command), per, plot_band(summary, title), [])
 
 
 def _report(args: argparse.Namespace, stem: Path, md: str, summary: list[dict], figure, notes: list[str]) -> int:
@@ -329,18 +366,19 @@ def _argv(args: argparse.Namespace) -> list[str]:
     extra += (["--edge-limit", args.edge_limit] if args.edge_limit else []) + (
         [f"--edge-span {args.edge_span[0]:g},{args.edge_span[1]:g}"] if args.edge_span else []) + (
         ["--offsets " + ",".join(f"{x:g}" for x in args.offsets)] if args.offsets else [])
+    extra += (["--band", *(f"{k}={lo:g},{hi:g}" for k, (lo, hi) in args.band)] if args.band else []) + (
+        [f"--constrained {args.constrained:g}"] if args.constrained is not None else []) + (
+        ["--ensemble", args.ensemble] if args.ensemble else []) + (
+        [f"--risk {args.risk:g}"] if args.risk != RISK else [])
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
-def cmd_calibrate(args: argparse.Namespace) -> int:
-    import json
+def _evaluated_rows(folders: list[str]) -> list[dict]:
+    """Every plan row in `judgeopt evaluate` output folders (FOLDER/partial/*.json)."""
+    from judgeopt.planners.calibration import CalibrationError
 
-    from judgeopt.planners.calibration import (CalibrationError, describe, fit_from_rows, load_calibration,
-                                               save_calibration)
-
-    check_writable([args.out])
-    rows, sources = [], []
-    for folder in map(Path, args.folders):
+    rows = []
+    for folder in map(Path, folders):
         files = sorted((folder / "partial").glob("*.json"))
         if not files:
             raise CalibrationError(f"{folder}: no evaluated plans (expected {folder}/partial/*.json from "
@@ -351,7 +389,38 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
             except json.JSONDecodeError:
                 raise CalibrationError(f"{f}: not valid JSON (a damaged chunk: delete it and rerun the evaluation "
                                        "to redo it)") from None
-        sources.append(str(folder))
+    return rows
+
+
+def cmd_calibrate(args: argparse.Namespace) -> int:
+    from judgeopt.planners.calibration import CalibrationError, load_calibration, save_calibration
+
+    check_writable([args.out])
+    if not args.folders and not args.evidence:
+        raise CLIError("give evaluation folders to fit on, or --evidence FOLDER... to set the risk behind 'likely' "
+                       "for the calibration already in --out")
+    out = Path(args.out)
+    if not args.folders and not out.exists():
+        raise CalibrationError(f"--evidence: {out} holds no calibration to add it to; fit one first with "
+                               f"`judgeopt calibrate FOLDER... --out {out}`")
+    kept = load_calibration(out) if out.exists() and not args.replace else {}
+    fitted = _fit_calibration(args) if args.folders else {}
+    calibrators = {**{k: v for k, v in kept.items() if k not in fitted}, **fitted}
+    evidence = _risk_evidence(args, calibrators) if args.evidence else {}
+    if fitted and not evidence and out.exists() and "evidence" in json.loads(out.read_text()):
+        print(f"note: the held-out evidence in {out} described the calibration being replaced and is dropped; "
+              "recompute it with --evidence FOLDER (`judgeopt evaluate band` on another seed)")
+    save_calibration(out, calibrators, evidence)
+    print(f"wrote {out} ({len(fitted)} settings fitted, {len(calibrators) - len(fitted)} kept from before"
+          f"{f', evidence for {len(evidence)} planners' if evidence else ''})")
+    return 0
+
+
+def _fit_calibration(args: argparse.Namespace) -> dict:
+    """Fit a calibrator per setting in the folders and print the table of them."""
+    from judgeopt.planners.calibration import CalibrationError, describe, fit_from_rows
+
+    rows = _evaluated_rows(args.folders)
     with_setting = [r for r in rows if r.get("setting") and (not args.methods or r.get("method") in args.methods)]
     if not with_setting and args.methods:
         raise CalibrationError(f"{args.folders}: no evaluated plans of {', '.join(args.methods)}")
@@ -363,15 +432,11 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if args.over_limits and not all("family" in r and "limits" in r for r in with_setting):
         raise CalibrationError(f"{args.folders}: these plans do not record their limits (made before --over-limits "
                                "existed); rerun the evaluation")
-    fitted = fit_from_rows(with_setting, descriptions, env_names, min_n=args.min_n, sources=sources,
+    fitted = fit_from_rows(with_setting, descriptions, env_names, min_n=args.min_n, sources=list(args.folders),
                            over_limits=args.over_limits)
     if not fitted:
         raise CalibrationError(f"no setting has {args.min_n} replayed outcomes in {args.folders}; evaluate more "
                                "environments or lower --min-n")
-    out = Path(args.out)
-    kept = load_calibration(out) if out.exists() and not args.replace else {}
-    kept = {k: v for k, v in kept.items() if k not in fitted}
-    save_calibration(out, {**kept, **fitted})
     print("| setting | planner | outcomes | simulated success | fitted ranges | CV log loss: monotone map "
           "(unconstrained logistic / isotonic on the judge / constant rate) |")
     print("|---|---|---|---|---|---|")
@@ -382,8 +447,29 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
                             if k in c.alternatives)
         print(f"| {c.setting} | {d['description']} | {c.n} | {d['success_pct']:.0f} % | {ranges} "
               f"| {d['cv_log_loss']:.3f} ({others} / {d['constant_log_loss']:.3f}){' -> the rate' if c.constant else ''} |")
-    print(f"wrote {out} ({len(fitted)} settings fitted, {len(kept)} kept from before)")
-    return 0
+    return fitted
+
+
+def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
+    """The held-out evidence per planner and judge (judgeopt.verdict.risk), from plans the
+    calibration was not fitted on, their p recomputed by that calibration; printed at --risk."""
+    from judgeopt.planners.calibration import CalibrationError, calibrate_rows, env_fingerprint
+    from judgeopt.verdict.risk import RISK, fit_evidence
+
+    rows = [r for r in _evaluated_rows(args.evidence) if r.get("method") and r.get("environment")]
+    if not rows:
+        raise CalibrationError(f"--evidence {' '.join(args.evidence)}: no replayed plans in these folders")
+    calibrate_rows(rows, calibrators, list(rows[0]["environment"]))
+    seen = sum(bool(r.get("calibration_fitted_on_env")) for r in rows)
+    if seen:
+        raise CalibrationError(f"--evidence: {seen} of its {len(rows)} plans are at environments and limits the "
+                               "calibration was fitted on; the evidence must be held out (evaluate on another --seed)")
+    evidence = fit_evidence(rows, confidence=args.confidence, fingerprint=lambda env: env_fingerprint(env.values()))
+    for e in evidence.values():
+        e.sources = list(args.evidence)
+        print(f"evidence, {e.method} ({e.plans} plans; judge p raised above 0.5 by the calibration: "
+              f"{e.raised['successes']} of {e.raised['n']} succeeded): {e.describe(RISK)}")
+    return evidence
 
 
 def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
@@ -434,7 +520,13 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--trials", type=positive, metavar="K", help="trials: times each plan is tried, each in a world "
                    "drawn anew around the planned one (the object placed by hand, friction, mass, sensor noise; "
                    "default 10)")
-    e.add_argument("--n", type=positive, default=100, help="environments per row")
+    e.add_argument("--band", nargs="+", type=env_range, metavar="NAME=LO,HI", help="band: draw each setting's limit or "
+                   "environment variable NAME uniformly from LO-HI (default: the task's edge band)")
+    e.add_argument("--constrained", type=float, metavar="SHARE", help="band: the share of settings that also draw a "
+                   "constraint set (a_max, jerk_max, fdot_max, an early force cap; default 0.3)")
+    e.add_argument("--ensemble", metavar="DIR", help="band: a judge ensemble whose members' p each plan records")
+    e.add_argument("--risk", type=float, default=RISK, metavar="R", help="band: the risk behind 'likely' (as solve --risk)")
+    e.add_argument("--n", type=positive, default=100, help="environments per row (band: settings)")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
     e.add_argument("--methods", nargs="+", choices=PlannerChoices(),
@@ -456,7 +548,13 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                        "falling while the judge's p rises; planners report it as calibrated_success where it covers "
                        "the plan (near fitted outcomes in limits, environment and judge's p). Evaluate on another "
                        "--seed to test it.")
-    c.add_argument("folders", nargs="+", metavar="DIR", help="evaluation output folders (with partial/*.json)")
+    c.add_argument("folders", nargs="*", metavar="DIR", help="evaluation output folders (with partial/*.json) to fit "
+                   "on; none: keep the calibration in --out and only set its evidence")
+    c.add_argument("--evidence", nargs="+", metavar="DIR", help="evaluation folders the calibration was NOT fitted on "
+                   "(`judgeopt evaluate band` on another seed): per planner, the threshold of 'likely' at each risk "
+                   "(solve --risk) and the raise a calibrated p may make over a judge's p below 0.5, stored in --out")
+    c.add_argument("--confidence", type=float, default=CONFIDENCE, help="confidence of the evidence's Clopper-Pearson "
+                   "bounds")
     c.add_argument("--out", default="out/calibration.json", metavar="FILE", type=file_path,
                    help="calibration file: its other settings "
                    "are kept unless --replace (the shipped one is models/calibration_default.json)")

@@ -16,6 +16,7 @@ from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
 from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
 from judgeopt.planners.result import LEGEND, OUTSIDE
+from judgeopt.verdict.risk import CONFIDENCE, RISK
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
                                        load_problem)
 
@@ -178,6 +179,23 @@ def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
         load_trust_region(resolve(problem.trust_model, (".json",)))
 
 
+def risk_share(text: str) -> float:
+    """--risk: a failure rate in (0, 1)."""
+    value = finite(text)
+    if not 0.0 < value < 1.0:
+        raise argparse.ArgumentTypeError(f"{text}: a failure rate between 0 and 1 (0.02 is 2 %)")
+    return value
+
+
+def risk_line(r) -> str:
+    """What stands behind a result's "likely": the held-out evidence at the risk asked for, or that none does."""
+    risk = r.info.get("risk")
+    if risk is None:  # no evidence at all (another judge, or none computed)
+        return (f"unchecked: no held-out replayed plans of {r.method} with this judge are stored with the calibration, "
+                "so 'likely' is p >= 0.5 (`judgeopt evaluate band`, then `judgeopt calibrate --evidence FOLDER`)")
+    return risk["evidence"]
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
@@ -217,6 +235,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     _check_named_models(args, problem)
     planners = Planners.load(problem, methods, generator=args.generator, models_dir=args.models,
                              casadi_backend=args.casadi_backend)
+    planners.risk = args.risk
     if fallback:
         planners.notes.append(fallback)
     if args.set_calibration:  # asked for by name: another judge's is refused
@@ -291,6 +310,10 @@ def cmd_solve(args: argparse.Namespace) -> int:
         if uncovered:
             print(f"note: the calibration does not cover the {' and '.join(uncovered)} plan here (limits, "
                   "environment and judge's p far from the outcomes it was fitted on): its success p is the judge's own")
+        if args.explain:
+            for r in results:
+                if r.verdict is not None:
+                    print(f"risk ({r.method}): {risk_line(r)}")
         print(f"legend: {LEGEND}" if args.explain else "(judge: the judge's own p; success p: the p judgeopt stands "
               "behind; --explain says more)")
         files, failed = _write(writes)
@@ -551,7 +574,11 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    "direct solve plans for the worst case over a grid of it (default) or for the expected success "
                    "over the grid; the other planners plan for its middle")
     s.add_argument("--explain", action="store_true", help="also print what the table's judge, success p and verdict "
-                   "columns mean")
+                   "columns mean, and the held-out evidence behind each planner's 'likely'")
+    s.add_argument("--risk", type=risk_share, default=RISK, metavar="R",
+                   help=f"the failure rate a 'likely' may carry, as a {100 * CONFIDENCE:g} %% upper confidence bound on "
+                   f"held-out replayed plans of the planner (default {RISK:g}); a plan above 0.5 but under the threshold "
+                   "that risk sets is 'uncertain'")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")

@@ -28,10 +28,10 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from judgeopt.evaluate.feasibility import SearchConfig, search
-from judgeopt.evaluate.report import calibration_error, cell, reliability
+from judgeopt.evaluate.report import cell, verdict_stats
 from judgeopt.files import atomic_write
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import BREAKS, OUTSIDE, overall_verdict
+from judgeopt.planners.result import overall_verdict
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -178,33 +178,11 @@ def run_edge(problem: Problem, cfg: EdgeConfig, methods: tuple[str, ...], n: int
     return sorted((r for rs in done.values() for r in rs), key=lambda r: (r["env_index"], r.get("offset", 0)))
 
 
-def _rate(k: int, n: int) -> float | None:
-    return 100.0 * k / n if n else None
-
-
 def summarise_edge(rows: Sequence[dict], methods: Sequence[str]) -> dict:
     """Per planner: plans, successes, likely / likely and failed, unlikely / unlikely and
     succeeded, the outside-the-data and uncalibrated counts, mean p, ECE and the reliability
     cells; per setting (environment and offset): the overall verdict where no plan succeeded."""
-    planned = [r for r in rows if r.get("method") and r.get("verdict") is not None
-               and r.get("simulated_success") is not None]
-    per = []
-    for m in methods:
-        rs = [r for r in planned if r["method"] == m]
-        p = np.array([r["success_probability"] for r in rs], float)
-        sim = np.array([float(r["simulated_success"]) for r in rs])
-        likely = [r for r in rs if r["verdict"] == "likely"]
-        unlikely = [r for r in rs if r["verdict"] == "unlikely"]
-        per.append({"method": m, "plans": len(rs), "successes": int(sim.sum()),
-                    "likely": len(likely), "likely_failed": sum(not r["simulated_success"] for r in likely),
-                    "likely_failed_pct": _rate(sum(not r["simulated_success"] for r in likely), len(likely)),
-                    "unlikely": len(unlikely), "unlikely_succeeded": sum(bool(r["simulated_success"]) for r in unlikely),
-                    "outside_judge_data": sum(r["verdict"] == OUTSIDE for r in rs),
-                    "breaks_limits": sum(r["verdict"] == BREAKS for r in rs),
-                    "calibrated": sum(r.get("probability_source") == "calibrated" for r in rs),
-                    "mean_p": float(p.mean()) if len(p) else None, "success_pct": _rate(int(sim.sum()), len(rs)),
-                    "ece": calibration_error(p, sim, EDGE_BINS) if len(p) else None,
-                    "reliability": reliability(p, sim, EDGE_BINS) if len(p) else []})
+    per = verdict_stats(rows, methods, EDGE_BINS)
     groups: dict[str, list[dict]] = {}  # a setting: its environment and every limit (sweeps at several q̇_max share indices)
     edges: dict[str, float | None] = {}  # an environment under the limits other than the one bisected
     for r in rows:

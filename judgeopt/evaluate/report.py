@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -221,3 +222,39 @@ def plot(summary: list[dict], title: str) -> Figure:
     ax.legend(fontsize=8)
     fig.tight_layout()
     return fig
+
+
+def _rate(k: int, n: int) -> float | None:
+    return 100.0 * k / n if n else None
+
+
+def verdict_stats(rows: Sequence[dict], methods: Sequence[str], bins: Sequence[float]) -> list[dict]:
+    """Per planner, over replayed plans with a verdict: plans, successes, likely / likely and failed
+    (with the Clopper-Pearson upper bound on that rate), uncertain, unlikely / unlikely and
+    succeeded, the outside-the-data, limit-breaking and calibrated counts, mean p, ECE and the
+    reliability cells."""
+    from judgeopt.planners.result import BREAKS, OUTSIDE, UNCERTAIN
+    from judgeopt.verdict.risk import upper_bound
+
+    planned = [r for r in rows if r.get("method") and r.get("verdict") is not None
+               and r.get("simulated_success") is not None]
+    per = []
+    for m in methods:
+        rs = [r for r in planned if r["method"] == m]
+        p = np.array([r["success_probability"] for r in rs], float)
+        sim = np.array([float(r["simulated_success"]) for r in rs])
+        likely = [r for r in rs if r["verdict"] == "likely"]
+        unlikely = [r for r in rs if r["verdict"] == "unlikely"]
+        failed = sum(not r["simulated_success"] for r in likely)
+        per.append({"method": m, "plans": len(rs), "successes": int(sim.sum()),
+                    "likely": len(likely), "likely_failed": failed, "likely_failed_pct": _rate(failed, len(likely)),
+                    "likely_failed_bound_pct": 100 * upper_bound(failed, len(likely)) if likely else None,
+                    "uncertain": sum(r["verdict"] == UNCERTAIN for r in rs),
+                    "unlikely": len(unlikely), "unlikely_succeeded": sum(bool(r["simulated_success"]) for r in unlikely),
+                    "outside_judge_data": sum(r["verdict"] == OUTSIDE for r in rs),
+                    "breaks_limits": sum(r["verdict"] == BREAKS for r in rs),
+                    "calibrated": sum(r.get("probability_source") == "calibrated" for r in rs),
+                    "mean_p": float(p.mean()) if len(p) else None, "success_pct": _rate(int(sim.sum()), len(rs)),
+                    "ece": calibration_error(p, sim, bins) if len(p) else None,
+                    "reliability": reliability(p, sim, bins) if len(p) else []})
+    return per

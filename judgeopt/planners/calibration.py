@@ -30,6 +30,7 @@ from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
 from judgeopt.planners.base import PLANNER_OPTIONS, REGISTRY
 from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
+from judgeopt.verdict.risk import Evidence
 
 FORMAT, VERSION = "judgeopt-calibration", 2
 LOGIT_CLIP = 12.0  # a judge saturates; beyond this its logit says nothing more
@@ -273,9 +274,13 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
     return cal
 
 
-def save_calibration(path: str | Path, calibrators: dict[str, Calibrator]) -> Path:
+def save_calibration(path: str | Path, calibrators: dict[str, Calibrator],
+                     evidence: dict[str, Evidence] | None = None) -> Path:
+    """The calibrators, and the held-out evidence that sets the risk behind "likely" (judgeopt.verdict.risk)."""
     path = Path(path)
     doc = {**header(FORMAT, VERSION), "settings": {k: asdict(c) for k, c in sorted(calibrators.items())}}
+    if evidence:
+        doc["evidence"] = {k: e.to_dict() for k, e in sorted(evidence.items())}
     atomic_write(path, (json.dumps(doc, indent=1) + "\n").encode())
     return path
 
@@ -306,6 +311,22 @@ def load_calibration(path: str | Path) -> dict[str, Calibrator]:
                 len(p) != width for p in c.points):
             raise CalibrationError(f"{path}: setting {k} has weights or fitted points of the wrong size for its "
                                    "inputs; refit it with `judgeopt calibrate`")
+    return out
+
+
+def load_evidence(path: str | Path) -> dict[str, Evidence]:
+    """The file's held-out evidence per planner and judge (judgeopt.verdict.risk.evidence_key);
+    empty where it has none (every verdict's risk is then unchecked)."""
+    path = Path(path)
+    load_calibration(path)  # the same checks, the same one-line errors
+    try:
+        out = {k: Evidence.from_dict(v) for k, v in json.loads(path.read_text()).get("evidence", {}).items()}
+        for k, e in out.items():
+            if not e.grid or any(set(g) != {"threshold", "n", "failures", "bound"} for g in e.grid):
+                raise ValueError(f"evidence {k} has no threshold table")
+    except (TypeError, ValueError, AttributeError) as exc:
+        raise CalibrationError(f"{path}: malformed evidence ({exc}); recompute it with `judgeopt calibrate "
+                               f"--evidence FOLDER... --out {path}`") from None
     return out
 
 

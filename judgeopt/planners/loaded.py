@@ -26,6 +26,7 @@ from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.trajectory import PlanError
+from judgeopt.verdict.risk import RISK, annotate as annotate_risk
 
 @dataclass(frozen=True)
 class ChosenModels:
@@ -119,6 +120,8 @@ class Planners:
     descriptions: dict[str, str] = field(default_factory=dict)
     calibrators: dict = field(default_factory=dict)  # method -> calibration.Calibrator
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
+    evidence: dict = field(default_factory=dict)  # the file's held-out evidence (verdict.risk.evidence_key -> Evidence)
+    risk: float = RISK  # the failure rate a "likely" may carry (its upper confidence bound on the evidence)
     generators: dict = field(default_factory=dict)  # generator path -> (Generator, meta), shared by with_limits copies
     for_sets: dict = field(default_factory=dict)  # (method, samples, case) -> its planner for environment sets
 
@@ -209,7 +212,7 @@ class Planners:
 
     def _settings(self) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.planners.calibration import load_calibration, lookup
+        from judgeopt.planners.calibration import load_calibration, load_evidence, lookup
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
@@ -224,6 +227,7 @@ class Planners:
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
             self.calibration_file = load_calibration(path)
+            self.evidence = load_evidence(path)
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
@@ -332,6 +336,7 @@ class Planners:
         outside = outside_data(self.judge_meta, env, limits)
         if outside:
             r.info["outside_judge_data"] = outside
+        annotate_risk(r.info, self.evidence, r.method, self.judge_meta["weights_sha256"], {**limits, **env}, self.risk)
         return assess(r)
 
 

@@ -115,8 +115,11 @@ class SolveReport(ReportViews):
 
     @property
     def unlikely(self) -> bool:
-        """No plan to run is likely: the exit code and the suggestions follow."""
-        return self.verdict == "unlikely"
+        """No plan to run is likely (unlikely, or uncertain at the risk asked for): the exit code and
+        the suggestions follow."""
+        from judgeopt.planners.result import UNCERTAIN
+
+        return self.verdict in ("unlikely", UNCERTAIN)
 
     @property
     def outside(self) -> list[str]:

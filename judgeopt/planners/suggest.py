@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from judgeopt.planners.constraints import RATE_LIMITS
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import LIKELY, PlanResult, recommended
+from judgeopt.planners.result import PlanResult, recommended
 from judgeopt.planners.base import spec_of
 from judgeopt.planners.loaded import Planners
 from judgeopt.tasks import Task, get_task
@@ -101,15 +101,16 @@ class Suggestion:
                 "success_probability_at_bound": self.p_at_bound}
 
 
-def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) -> float:
-    """Best success probability of the fastest planner that covers the relaxed limit (the first
-    that plans before execution: the registry lists the built-ins fastest first)."""
+def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) -> tuple[float, bool]:
+    """The success probability of the fastest planner that covers the relaxed limit (the first
+    that plans before execution: the registry lists the built-ins fastest first), and whether its
+    plan is called likely there (at the risk asked for)."""
     relaxed = planners.with_limits(**{name: value})
     fastest = next(m for m in relaxed.methods if not spec_of(m).closed_loop)
     r = recommended(relaxed.only(fastest).solve(env, guess=guess))
     # a screen: the fast planner's p where its soft plan breaks a limit too (the suggestion itself is
     # planned again by every planner and must be called likely)
-    return -1.0 if r is None else r.success_probability
+    return (-1.0, False) if r is None else (r.success_probability, r.verdict == "likely")
 
 
 def printable(value: float, direction: int, limit: float, digits: int = 3) -> float:
@@ -141,13 +142,13 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
         if (rx.bound - current) * rx.direction <= rx.resolution:
             continue  # already at what the demonstrations reach
         try:
-            p_bound = _screen(planners, rx.name, rx.bound, env, guess)
-            if p_bound < LIKELY:
+            p_bound, likely = _screen(planners, rx.name, rx.bound, env, guess)
+            if not likely:
                 continue
             lo, hi = current, rx.bound  # unlikely at lo, likely at hi
             while abs(hi - lo) > rx.resolution:
                 mid = 0.5 * (lo + hi)
-                if _screen(planners, rx.name, mid, env, guess) >= LIKELY:
+                if _screen(planners, rx.name, mid, env, guess)[1]:
                     hi = mid
                 else:
                     lo = mid
@@ -188,7 +189,7 @@ def _dropped_bounds(planners: Planners, env: dict[str, float], guess) -> list[Su
     for i, text in enumerate(p.bounds):
         rest = [b for j, b in enumerate(p.bounds) if j != i]
         try:
-            if _screen(planners, "bounds", rest, env, guess) < LIKELY:
+            if not _screen(planners, "bounds", rest, env, guess)[1]:
                 continue
             top = recommended(planners.with_limits(bounds=rest).solve(env, guess=guess))
         except ProblemError:

@@ -207,6 +207,9 @@ class Task(ABC):
     #: ranges of q̇_max, f_min and f_max (lo, hi) wider than any shipped problem, down to limits
     #: under which the task fails: what refinement and the sweep draw limits from (optional)
     wide_limits: dict[str, tuple[float, float]] | None = None
+    #: ranges of limits and environment variables (lo, hi) where the task's scoops start to fail:
+    #: where `judgeopt evaluate band` draws settings to check the verdict on (optional)
+    edge_band: dict[str, tuple[float, float]] | None = None
     #: how the world may differ from the one a plan is made for (`Perturbation`); the task's
     #: simulator applies them (`TaskSimulator.perturb`). Empty: none declared
     perturbations: tuple[Perturbation, ...] = ()

@@ -107,7 +107,7 @@ def test_summary_counts_likely_failures_and_overall_likely_where_none_succeeded(
     assert {k: v for k, v in am.items() if k not in ("reliability", "ece", "mean_p")} == {
         "method": "amortized", "plans": 4, "successes": 2, "likely": 2, "likely_failed": 1, "likely_failed_pct": 50.0,
         "unlikely": 1, "unlikely_succeeded": 1, "outside_judge_data": 1, "breaks_limits": 0, "calibrated": 3,
-        "success_pct": 50.0}
+        "success_pct": 50.0, "uncertain": 0, "likely_failed_bound_pct": pytest.approx(100 * 0.95 ** 0.5)}  # 1 of 2: 1 - u² = 0.05
     broken = summarise_edge([_row(0, 0.0, "amortized", "breaks a hard limit", 0.97, False)], ("amortized",))
     assert broken["planners"][0]["breaks_limits"] == 1 and broken["planners"][0]["outside_judge_data"] == 0
     assert broken["planners"][0]["likely"] == 0
@@ -130,7 +130,7 @@ def test_summary_counts_likely_failures_and_overall_likely_where_none_succeeded(
     assert summarise_edge([], ("direct",))["planners"][0] == {
         "method": "direct", "plans": 0, "successes": 0, "likely": 0, "likely_failed": 0, "likely_failed_pct": None,
         "unlikely": 0, "unlikely_succeeded": 0, "outside_judge_data": 0, "breaks_limits": 0, "calibrated": 0,
-        "mean_p": None,
+        "mean_p": None, "uncertain": 0, "likely_failed_bound_pct": None,
         "success_pct": None, "ece": None, "reliability": []}
 
 

@@ -105,7 +105,7 @@ def test_printable_values_round_the_way_the_limit_relaxes_and_stay_within_reach(
 
 def test_suggest_says_nothing_when_no_relaxation_helps(monkeypatch):
     problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
-    monkeypatch.setattr(suggest_module, "LIKELY", 1.01)  # nothing is ever likely
+    monkeypatch.setattr(result_module, "LIKELY", 1.01)  # nothing is ever likely
     planners = FakePlanners(problem)
     assert suggest(planners, {"y_obj": 0.2, "mu": 2.0}, []) == []
     assert len(planners.calls) == len(RELAXATIONS)  # one screen at each bound, no bisection
@@ -124,7 +124,6 @@ def test_solve_reports_a_verdict_and_its_source(capsys):
 @pytest.mark.parametrize("suggest_flag", ["--no-suggest", "--suggest"])
 def test_solve_exits_4_and_says_so_in_one_line_when_no_plan_is_likely(monkeypatch, capsys, suggest_flag):
     monkeypatch.setattr(result_module, "LIKELY", 1.01)
-    monkeypatch.setattr(suggest_module, "LIKELY", 1.01)
     rc = main(["solve", "--qdot-max", "0.4", "--method", "direct", "--no-simulate", suggest_flag])
     text = capsys.readouterr().out
     assert rc == 4
@@ -232,7 +231,7 @@ def test_outside_the_judges_data_the_verdict_says_so_unless_a_calibration_checke
     far = ["y_obj = 0.35 m is outside the judge's data (0.10-0.28)"]
     judged = _planned("direct", 0.999, outside_judge_data=far)
     assert judged.verdict == OUTSIDE and judged.to_json()["verdict"] == OUTSIDE
-    checked = _planned("direct", 0.2, outside_judge_data=far, calibrated_success=0.9, calibration_covers=True)
+    checked = _planned("direct", 0.6, outside_judge_data=far, calibrated_success=0.9, calibration_covers=True)
     assert checked.verdict == "likely"  # a calibrated p was checked against replayed outcomes there
     inside = _planned("amortized", 0.4)
     assert overall_verdict([judged, inside]) == "unlikely"  # a plan inside the data is preferred
@@ -332,12 +331,21 @@ def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
             {"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
              "calibration_covers": False},
             {"success_probability": 0.3, "predicted_success": 0.3},
-            {"success_probability": 0.3, "predicted_success": 0.3, "calibrated_success": 0.8,
-             "calibration_covers": True, "outside_judge_data": ["mu = 4.5 is outside the judge's data (0.05-4.0)"]}]
+            {"success_probability": 0.6, "predicted_success": 0.6, "calibrated_success": 0.8,
+             "calibration_covers": True, "outside_judge_data": ["mu = 4.5 is outside the judge's data (0.05-4.0)"]},
+            # a calibrated p lifting a judge's below 0.5: only as far as held-out evidence of such lifts backs
+            {"success_probability": 0.3, "predicted_success": 0.3, "calibrated_success": 0.8, "calibration_covers": True},
+            {"success_probability": 0.3, "predicted_success": 0.3, "calibrated_success": 0.8, "calibration_covers": True,
+             "raise_floor": 0.6},
+            # held-out evidence sets 'likely' at 0.99: below it, uncertain; none holds the risk: never likely
+            {"success_probability": 0.95, "predicted_success": 0.95, "likely_at": 0.99},
+            {"success_probability": 0.995, "predicted_success": 0.995, "likely_at": 0.99},
+            {"success_probability": 0.995, "predicted_success": 0.995, "likely_at": None}]
     reassess(rows)
     assert [(r["success_probability"], r.get("probability_source"), r["verdict"]) for r in rows] == [
         (None, None, None), (0.2, "calibrated", "unlikely"), (0.99, "judge", "likely"), (0.3, "judge", "unlikely"),
-        (0.8, "calibrated", "likely")]
+        (0.8, "calibrated", "likely"), (0.3, "calibrated", "unlikely"), (0.6, "calibrated", "likely"),
+        (0.95, "judge", "uncertain"), (0.995, "judge", "likely"), (0.995, "judge", "uncertain")]
     from judgeopt.planners.result import stood_behind
 
     assert stood_behind(None, None, False) == (None, "") and stood_behind(None, 0.7, False) == (None, "")

@@ -57,6 +57,9 @@ class ScoopTask(Task):
     default_judge = "models/judge_refined"
     # q̇_max from what reaches y_obj = 0.28 m; below f_max ~ 15 N no scoop succeeds at high friction
     wide_limits = {"qdot_max": (0.22, 1.2), "f_min": (0.0, 10.0), "f_max": (11.0, 30.0)}
+    # where scoops start to fail: pressing at most 11-15.5 N, at any speed limit, anywhere, on any friction
+    # the judge was trained on and a little beyond (mu 3.0-3.2)
+    edge_band = {"qdot_max": (0.3, 1.0), "f_max": (11.0, 15.5), "y_obj": (0.12, 0.27), "mu": (1.0, 3.2)}
     # the world unlike the model: friction and position misestimated, mass, size, mat, gains, sensor
     perturbations = PERTURBATIONS
     trial_spread = TRIAL_SPREAD

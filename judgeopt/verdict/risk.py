@@ -1,0 +1,175 @@
+"""The risk behind "likely": a threshold on the printed p, chosen from held-out replayed outcomes.
+
+A calibration map is fitted on some sweeps; one step away from them it can be wrong
+(issue 43: 15-18 % of plans called likely failed on settings drawn across the edge band). So
+"likely" is not p >= 0.5. Per planner and judge, plans replayed on settings the calibration was
+NOT fitted on (`judgeopt evaluate band`) are the evidence: for each threshold t of a fixed grid,
+the plans that hold their limits and would be called likely at p >= t, and how many failed. A
+request at risk r is called likely at the smallest t whose one-sided Clopper-Pearson upper bound
+on the failure rate (at the evidence's confidence, 95 % by default) is <= r; where no t is, the
+planner cannot say likely at that risk ("uncertain"). A planner and judge with no evidence has
+no stated risk: its verdict says so ("risk unchecked").
+
+The calibrated p may raise a judge's p below 0.5 only as far as the evidence's lower confidence
+bound on the success rate of the plans it raised so (`raise_floor`): on the band, 4 of 19 such
+plans succeeded where the map said 0.8-0.9.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable, Iterable, Mapping
+
+import numpy as np
+
+#: the default risk: at most this failure rate among plans called likely, as an upper confidence bound
+RISK = 0.02
+#: the default confidence of the bounds
+CONFIDENCE = 0.95
+#: the thresholds a risk may select (fixed, so the choice cannot be tuned to single outcomes)
+GRID = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
+#: a value further than this share of a range's width beyond it lies outside the evidence
+RANGE_MARGIN = 0.02
+#: below this judge p a calibrated p above it is a raise the evidence must back (the verdict's "likely" line)
+RAISE_FROM = 0.5
+#: a plan holds its hard constraints when its worst residual is at most this (in the constraint's units);
+#: one that breaks them is never likely, and the plan recommended to run holds them where any does
+HOLD_TOL = 1e-3
+
+
+def upper_bound(failures: int, n: int, confidence: float = CONFIDENCE) -> float:
+    """One-sided Clopper-Pearson upper bound on a rate seen `failures` times in `n` (1.0 for n = 0)."""
+    from scipy.special import betaincinv
+
+    if n == 0 or failures >= n:
+        return 1.0
+    return float(betaincinv(failures + 1, n - failures, confidence))
+
+
+def lower_bound(successes: int, n: int, confidence: float = CONFIDENCE) -> float:
+    """One-sided Clopper-Pearson lower bound on a rate seen `successes` times in `n` (0.0 for none)."""
+    return 1.0 - upper_bound(n - successes, n, confidence) if successes else 0.0
+
+
+def evidence_key(method: str, judge_sha256: str | None) -> str:
+    """Evidence is per planner and judge, over every limit and constraint set it was drawn at."""
+    return f"{method}@{(judge_sha256 or 'unknown')[:16]}"
+
+
+@dataclass
+class Evidence:
+    """One planner's (and judge's) held-out outcomes, reduced to what a verdict needs."""
+
+    method: str
+    judge_sha256: str | None
+    confidence: float
+    grid: list[dict[str, float]]  # [{threshold, n, failures, bound}], thresholds ascending
+    raised: dict[str, float]  # {n, successes, floor}: plans whose judge p < RAISE_FROM and calibrated p >= it
+    plans: int = 0
+    ranges: dict[str, list[float]] = field(default_factory=dict)  # each limit's and variable's [lo, hi] in the plans
+    sources: list[str] = field(default_factory=list)
+    fingerprints: list[str] = field(default_factory=list)  # the environments (calibration.env_fingerprint)
+
+    @property
+    def raise_floor(self) -> float:
+        return float(self.raised.get("floor", 0.0))
+
+    def outside(self, values: Mapping[str, Any]) -> list[str]:
+        """The limits and variables (of `values`) beyond the ranges the evidence was drawn over, as
+        `f_max 22.5 (11-15.5)`: the risk it states was measured inside them only."""
+        out = []
+        for k, (lo, hi) in self.ranges.items():
+            v = values.get(k)
+            tol = 1e-9 + RANGE_MARGIN * (hi - lo)
+            if isinstance(v, (int, float)) and not lo - tol <= v <= hi + tol:
+                out.append(f"{k} {v:g} ({lo:g}-{hi:g})")
+        return out
+
+    def at(self, risk: float = RISK) -> dict[str, float] | None:
+        """The grid row that sets "likely" at this risk (the lowest threshold whose bound is <= the
+        risk), or None where none is."""
+        return next((g for g in self.grid if g["n"] > 0 and g["bound"] <= risk), None)
+
+    def describe(self, risk: float = RISK) -> str:
+        row = self.at(risk)
+        pct = f"{100 * self.confidence:g} %"
+        if row is None:
+            best = min(self.grid, key=lambda g: g["bound"])
+            return (f"no threshold holds a {100 * risk:g} % risk on {self.plans} held-out plans of {self.method} "
+                    f"(the best: p >= {best['threshold']:g}, {int(best['failures'])} of {int(best['n'])} failed, "
+                    f"{pct} bound {100 * best['bound']:.1f} %), so it is never called likely at that risk")
+        return (f"likely at p >= {row['threshold']:g}: of {int(row['n'])} held-out plans of {self.method} there, "
+                f"{int(row['failures'])} failed ({pct} upper bound {100 * row['bound']:.1f} % <= risk {100 * risk:g} %)")
+
+    def to_dict(self) -> dict[str, Any]:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "Evidence":
+        return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
+
+
+def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: str, judge_sha256: str | None,
+             values: Mapping[str, Any], risk: float = RISK) -> None:
+    """What a plan's result (its info, or its JSON row) carries from the evidence of its planner
+    and judge at `risk`, where its limits and environment (`values`) lie inside the evidence's
+    ranges: raise_floor, likely_at (None: no threshold holds the risk) and risk (the row that sets
+    it, described). Where there is no evidence, or the plan lies outside it, only risk's text:
+    "likely" then stays p >= 0.5, its risk unchecked. What an earlier annotation wrote is dropped first."""
+    for key in ("raise_floor", "likely_at", "risk"):
+        target.pop(key, None)
+    ev = evidence.get(evidence_key(method, judge_sha256))
+    if ev is None:
+        return
+    beyond = ev.outside(values)
+    if beyond:
+        target["risk"] = {"risk": risk, "evidence": f"unchecked here: 'likely' is p >= {RAISE_FROM:g}, as the held-out "
+                          f"plans of {method} were drawn inside other ranges ({', '.join(beyond)})"}
+        return
+    row = ev.at(risk)
+    target.update(raise_floor=ev.raise_floor, likely_at=None if row is None else row["threshold"],
+                  risk={"risk": risk, "confidence": ev.confidence, **(row or {}), "evidence": ev.describe(risk)})
+
+
+def capped(predicted: float | None, calibrated: float, floor: float) -> float:
+    """The calibrated p, where it raises a judge p below RAISE_FROM no higher than `floor` (or the judge's own)."""
+    if predicted is None or predicted >= RAISE_FROM or calibrated <= predicted:
+        return calibrated
+    return min(calibrated, max(predicted, floor))
+
+
+def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDENCE, grid: Iterable[float] = GRID,
+                 fingerprint: Callable[[Mapping[str, float]], str] | None = None) -> dict[str, Evidence]:
+    """Per planner and judge, from replayed result rows whose calibrated p was computed by the
+    calibration the evidence is stored with (calibration.calibrate_rows). Counted: plans with a
+    p that hold their limits and lie inside the judge's data or a calibration's cover.
+    `fingerprint`: names each row's environment, to refuse evidence a calibration was fitted on."""
+    by: dict[str, list[Mapping[str, Any]]] = {}
+    for r in rows:
+        if r.get("method") and r.get("simulated_success") is not None and r.get("predicted_success") is not None:
+            by.setdefault(evidence_key(r["method"], r.get("judge_sha256")), []).append(r)
+    out = {}
+    for key, rs in sorted(by.items()):
+        y = np.array([bool(r["simulated_success"]) for r in rs])
+        judge = np.array([r["predicted_success"] for r in rs], float)
+        covered = np.array([bool(r.get("calibration_covers")) and r.get("calibrated_success") is not None for r in rs])
+        cal = np.array([r["calibrated_success"] if c else j for r, c, j in zip(rs, covered, judge)], float)
+        raised = covered & (judge < RAISE_FROM) & (cal >= RAISE_FROM)
+        floor = lower_bound(int(y[raised].sum()), int(raised.sum()), confidence)
+        p = np.array([capped(j, c, floor) if cov else j for j, c, cov in zip(judge, cal, covered)])
+        eligible = np.array([(r.get("max_constraint_violation") or 0.0) <= HOLD_TOL
+                             and (cov or not r.get("outside_judge_data")) for r, cov in zip(rs, covered)])
+        table = []
+        for t in sorted(grid):
+            s = eligible & (p >= t)
+            n, k = int(s.sum()), int((~y[s]).sum())
+            table.append({"threshold": float(t), "n": n, "failures": k, "bound": round(upper_bound(k, n, confidence), 6)})
+        values = [{**{k: v for k, v in r.get("limits", {}).items() if isinstance(v, (int, float))}, **r["environment"]}
+                  for r in rs]
+        ranges = {k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))]
+                  for k in values[0] if all(k in v for v in values)}
+        out[key] = Evidence(rs[0]["method"], rs[0].get("judge_sha256"), confidence, table,
+                            {"n": int(raised.sum()), "successes": int(y[raised].sum()), "floor": round(floor, 6)},
+                            plans=len(rs), ranges=ranges, sources=sorted({str(r.get("_source", "")) for r in rs} - {""}),
+                            fingerprints=sorted({fingerprint(r["environment"]) for r in rs}) if fingerprint else [])
+    return out
