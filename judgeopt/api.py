@@ -16,6 +16,7 @@ learnt here carries over to the deeper API.
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
@@ -23,6 +24,7 @@ from judgeopt.planners.problem import FIELDS, Problem, ProblemError, find_proble
 from judgeopt.planners.problem import load_problem as _load_problem_file
 from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.threads import DEFAULT_THREADS, torch_threads
+from judgeopt.verdict.risk import RISK
 
 if TYPE_CHECKING:  # the types only: `import judgeopt` stays light
     from judgeopt.judge.model import Judge
@@ -56,7 +58,7 @@ SOLVE_OPTIONS = ("warm_start", "ranges", "range_case", "suggest")
 
 def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Sequence[str] | None = None,
           simulate: bool = True, world: Mapping[str, float] | None = None, threads: int | None = DEFAULT_THREADS,
-          **options: Any) -> SolveReport:
+          risk: float = RISK, **options: Any) -> SolveReport:
     """Plan for the problem's environment and give the `SolveReport` (results, notes, verdict,
     suggestions) that `judgeopt solve` prints (judgeopt.planners.session.solve): `print(report)`
     gives its verdict in a few lines, `report.summary()` a table, `report.plot(path)` its plans.
@@ -66,7 +68,10 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
     holds when the cores are busy; None leaves the process's setting); `options`: the problem's
     limits, other fields and environment values by name, as `load_problem` takes them
     (`solve(qdot_max=0.4)`: the default problem under that limit), and session.solve's (SOLVE_OPTIONS:
-    warm_start, ranges, range_case, suggest); any other name is a one-line error, before anything loads."""
+    warm_start, ranges, range_case, suggest); any other name is a one-line error, before anything loads.
+    `risk`: the failure rate a "likely" may carry (`solve --risk`; docs/verdict.md)."""
+    if not 0.0 < risk < 1.0:
+        raise ProblemError(f"risk {risk!r}: a failure rate between 0 and 1 (0.02 is 2 %)")
     loaded = not isinstance(problem, (Problem, str, Path))  # planners already loaded
     given = problem.problem if loaded else problem if isinstance(problem, Problem) else load_problem(problem)
     overrides = {k: v for k, v in options.items() if k not in SOLVE_OPTIONS}
@@ -79,6 +84,7 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
         planners = problem.with_limits(**overrides) if overrides else problem
     else:
         planners = load_planners(given.with_overrides(**overrides) if overrides else given, methods)
+    planners = dataclasses.replace(planners, risk=risk)
     sim = simulator(planners.problem.task) if simulate else None
     try:
         with torch_threads(threads):

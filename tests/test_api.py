@@ -163,6 +163,9 @@ def test_solve_refuses_an_unknown_option_in_one_line_before_anything_loads(monke
         assert valid in said
     with pytest.raises(ProblemError, match="got 'nowhere'"):
         judgeopt.solve("paper_sim_slow", nowhere=1)
+    for risk in (0.0, 2.0, float("nan")):  # a failure rate, as `solve --risk` takes it
+        with pytest.raises(ProblemError, match="a failure rate between 0 and 1"):
+            judgeopt.solve(risk=risk)
     code = ("import sys, judgeopt\ntry:\n    judgeopt.solve(qdotmax=0.4)\nexcept ValueError:\n"
             "    print('torch' in sys.modules)")
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip() == \

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -181,9 +182,12 @@ def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
 
 def risk_share(text: str) -> float:
     """--risk: a failure rate in (0, 1)."""
-    value = finite(text)
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(f"{text}: a failure rate between 0 and 1 (0.02 is 2 %)")
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value < 1.0:  # nan too
+        raise argparse.ArgumentTypeError(f"{text!r}: a failure rate between 0 and 1 (0.02 is 2 %)")
     return value
 
 

@@ -10,8 +10,9 @@ planner plans each setting; each plan is replayed in simulation. Given a judge e
 plan also carries its members' probabilities (`ensemble_p`), so whether their disagreement
 foretells failure can be measured on the same outcomes.
 
-Rows are those `judgeopt calibrate` reads (one per plan), written per chunk to OUT/partial/ as
-they finish; a rerun resumes.
+Rows are those `judgeopt calibrate` reads (one per plan, the plan's samples included, so another
+judge can be scored on the same plans: scripts/band_judge_accuracy.py), written per chunk to
+OUT/partial/ as they finish; a rerun resumes.
 """
 
 from __future__ import annotations
@@ -129,9 +130,7 @@ def band_chunk(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], firs
             row = r.to_json()
             if members and r.plan is not None:
                 row["ensemble_p"] = ensemble_probabilities(members, r.plan, r.env)
-            for k in ("t", *row.get("channels", ())):  # the plan itself is not needed to score it
-                row.pop(k, None)
-            rows.append({**row, **common})
+            rows.append({**row, **common})  # with the plan (31 samples): another judge can be scored on it
     return rows
 
 

@@ -1,0 +1,129 @@
+"""`judgeopt evaluate band`: settings drawn where the user says, the same on every run, and the verdict
+re-scored by the evidence stored with a calibration."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+
+import pytest
+
+from judgeopt.cli import main
+from judgeopt.errors import ExitCode
+from judgeopt.evaluate.band import BandConfig, default_band, draw_setting, summarise_band
+from judgeopt.files import resolve
+from judgeopt.planners.problem import ProblemError, load_problem
+
+
+@pytest.fixture(scope="module")
+def problem():
+    return load_problem(resolve("problems/paper_sim.toml"))
+
+
+def test_settings_are_drawn_inside_the_band_the_same_on_every_run(problem):
+    band = default_band(problem.task)
+    settings = [draw_setting(problem, band, 7, i) for i in range(200)]
+    assert settings[3] == draw_setting(problem, band, 7, 3) != draw_setting(problem, band, 8, 3)
+    for name, lo, hi in band.ranges:
+        values = [s["limits"].get(name, s["environment"].get(name)) for s in settings]
+        assert lo <= min(values) and max(values) <= hi
+        assert min(values) < lo + 0.1 * (hi - lo) and max(values) > hi - 0.1 * (hi - lo)  # the whole band
+    assert not any(s["constraints"] for s in settings)  # no share asked for
+    some = [draw_setting(problem, dataclasses.replace(band, constrained=0.5), 7, i) for i in range(200)]
+    share = sum(bool(s["constraints"]) for s in some) / len(some)
+    assert 0.35 < share < 0.65 and all(set(s["constraints"]) == {"a_max", "jerk_max", "fdot_max", "bounds"}
+                                      for s in some if s["constraints"])
+
+
+@pytest.mark.parametrize("band, message", [
+    (BandConfig((("stiffness", 0.0, 1.0),)), "--band stiffness: not a limit or environment variable"),
+    (BandConfig((("f_max", 15.0, 11.0),)), "need finite LO <= HI"),
+    (BandConfig((("f_max", 11.0, 15.0),), constrained=1.5), "a share of the settings"),
+])
+def test_a_band_that_cannot_be_drawn_is_one_line(problem, band, message):
+    with pytest.raises(ProblemError, match=message):
+        band.check(problem)
+
+
+def test_bad_band_options_are_one_line_before_any_planning(capsys):
+    assert main(["evaluate", "band", "--band", "stiffness=0,1", "--n", "1"]) == 2
+    assert "not a limit or environment variable" in capsys.readouterr().err
+    assert main(["evaluate", "sweep", "--constrained", "0.5"]) == 2
+    assert "only for `judgeopt evaluate band`" in capsys.readouterr().err
+
+
+def _row(i, method, verdict, success, **kw):
+    return {"method": method, "env_index": i, "verdict": verdict, "simulated_success": success,
+            "success_probability": 0.9 if verdict == "likely" else 0.3, "probability_source": "calibrated",
+            "max_constraint_violation": 0.0, "band_constraints": {}, **kw}
+
+
+def test_the_plan_to_run_is_counted_per_setting():
+    rows = [_row(0, "amortized", "uncertain", True), _row(0, "direct", "likely", True),      # likely, succeeded
+            _row(1, "amortized", "unlikely", False), _row(1, "direct", "likely", False),     # likely, none succeeded
+            _row(2, "amortized", "unlikely", True), _row(2, "direct", "unlikely", False),    # one succeeded, not likely
+            _row(3, "direct", "uncertain", False, band_constraints={"a_max": 3.0})]
+    s = summarise_band(rows, ("amortized", "direct"))
+    assert (s["settings"], s["constrained"]) == (4, 1)
+    assert s["to_run"] == {"likely": 2, "likely_failed": 1, "likely_failed_bound_pct": pytest.approx(100 * 0.95 ** 0.5),
+                           "some_succeeded": 2, "likely_and_succeeded": 1, "none_succeeded": 2,
+                           "likely_where_none_succeeded": 1}
+    direct = s["planners"][1]
+    assert (direct["likely"], direct["likely_failed"], direct["uncertain"], direct["unlikely"]) == (2, 1, 1, 1)
+
+
+def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
+    """Evidence from plans the calibration never saw, built so that p >= 0.95 holds a 2 % risk."""
+    from judgeopt.planners.calibration import load_evidence
+    from judgeopt.judge.store import load_judge
+
+    sha = load_judge(resolve("models/judge_refined"))[1]["weights_sha256"]
+    rows = ([{"method": "direct", "judge_sha256": sha, "predicted_success": 0.996, "simulated_success": True,
+              "max_constraint_violation": 0.0, "environment": {"y_obj": 0.1 + k * 0.0009, "mu": 1.0 + k * 0.01},
+              "limits": {"qdot_max": 0.3 + k * 0.003, "f_max": 20.0}} for k in range(200)]
+            + [{"method": "direct", "judge_sha256": sha, "predicted_success": 0.92, "simulated_success": k >= 10,
+                "max_constraint_violation": 0.0, "environment": {"y_obj": 0.2, "mu": 2.0},
+                "limits": {"qdot_max": 0.5, "f_max": 20.0}} for k in range(100)])
+    (tmp_path / "band" / "partial").mkdir(parents=True)
+    (tmp_path / "band" / "partial" / "chunk.json").write_text(json.dumps(rows))
+    cal = tmp_path / "cal.json"
+    cal.write_bytes(resolve("models/calibration_default.json").read_bytes())
+    assert main(["calibrate", "--evidence", str(tmp_path / "band"), "--out", str(cal)]) == 0
+    assert "likely at p >= 0.95: of 200 held-out plans of direct there, 0 failed" in capsys.readouterr().out
+    (ev,) = load_evidence(cal).values()
+    assert ev.ranges["qdot_max"] == [0.3, pytest.approx(0.897)] and ev.sources == [str(tmp_path / "band")]
+    base = ["solve", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal), "--f-max", "20"]
+    for risk, likely_at in (("0.02", 0.95), ("0.06", 0.5), ("0.001", None)):
+        main([*base, "--qdot-max", "0.6", "--risk", risk])
+        (r,) = json.loads(capsys.readouterr().out)["results"]
+        assert r["likely_at"] == likely_at and r["risk"]["risk"] == float(risk)
+        assert r["verdict"] == ("unlikely" if r["success_probability"] < 0.5 else
+                                "likely" if likely_at is not None and r["success_probability"] >= likely_at else
+                                "uncertain")
+    main([*base, "--qdot-max", "1.0"])  # beyond the q̇_max the evidence was drawn over: unchecked
+    (r,) = json.loads(capsys.readouterr().out)["results"]
+    assert "likely_at" not in r and "unchecked here" in r["risk"]["evidence"]
+
+
+@pytest.mark.parametrize("risk", ["0", "1", "nan", "2 %"])
+def test_a_risk_that_is_not_a_rate_is_one_line(risk, capsys):
+    with pytest.raises(SystemExit) as exit:
+        main(["solve", "--risk", risk, "--no-simulate"])
+    assert exit.value.code == 2
+    err = capsys.readouterr().err.splitlines()[-1] + "\n"  # argparse's usage line, then the one line
+    assert err.count("\n") == 1 and "--risk" in err
+
+
+def test_calibrate_refuses_evidence_the_calibration_was_fitted_on(tmp_path, capsys):
+    """A calibration's own outcomes would be evidence that agrees with its map by construction."""
+    rows = [{"method": "direct", "setting": "s1", "family": "s1", "setting_description": "direct",
+             "predicted_success": 0.5 + k / 200, "simulated_success": k % 3 != 0, "max_constraint_violation": 0.0,
+             "environment": {"y_obj": 0.1 + k / 500, "mu": 1.0 + k / 50}, "limits": {"qdot_max": 0.5}}
+            for k in range(60)]
+    (tmp_path / "fit" / "partial").mkdir(parents=True)
+    (tmp_path / "fit" / "partial" / "chunk.json").write_text(json.dumps(rows))
+    cal = tmp_path / "cal.json"
+    assert main(["calibrate", str(tmp_path / "fit"), "--out", str(cal)]) == 0
+    capsys.readouterr()
+    assert main(["calibrate", "--evidence", str(tmp_path / "fit"), "--out", str(cal)]) == ExitCode.BAD_INPUT
+    assert "60 of its 60 plans are at environments and limits the calibration was fitted on" in capsys.readouterr().err

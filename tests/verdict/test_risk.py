@@ -1,0 +1,74 @@
+"""The risk behind "likely": bounds known in closed form, thresholds on outcomes built to set them."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from judgeopt.verdict.risk import (GRID, Evidence, annotate, capped, evidence_key, fit_evidence, lower_bound,
+                                   upper_bound)
+
+
+def test_clopper_pearson_bounds_match_their_closed_forms():
+    # no failure in n: (1 - u)^n = 0.05; one in two: P(X <= 1) = 1 - u^2 = 0.05; all failed: 1
+    for n in (1, 10, 149, 216):
+        assert upper_bound(0, n) == pytest.approx(1 - 0.05 ** (1 / n))
+    assert upper_bound(1, 2) == pytest.approx(math.sqrt(0.95))
+    assert upper_bound(3, 3) == 1.0 and upper_bound(0, 0) == 1.0
+    assert upper_bound(0, 149) < 0.02 < upper_bound(0, 148)  # 149 clean plans are the fewest that bound 2 %
+    assert lower_bound(10, 10) == pytest.approx(0.05 ** (1 / 10)) and lower_bound(0, 10) == 0.0
+    assert upper_bound(0, 100, 0.99) == pytest.approx(1 - 0.01 ** (1 / 100))
+
+
+def _row(p, success, method="direct", **kw):
+    return {"method": method, "judge_sha256": "ab" * 32, "predicted_success": p, "simulated_success": success,
+            "max_constraint_violation": 0.0, "environment": {"y_obj": 0.2, "mu": 2.0},
+            "limits": {"qdot_max": 0.5, "f_max": 13.0}, **kw}
+
+
+def test_the_threshold_is_the_lowest_whose_bound_holds_the_risk():
+    # 200 plans at p 0.996 all succeed, 100 at p 0.92 fail 10 times: from p >= 0.95 up, 0 of 200 failed
+    rows = [_row(0.996, True)] * 200 + [_row(0.92, i >= 10) for i in range(100)]
+    (key, ev), = fit_evidence(rows).items()
+    assert key == evidence_key("direct", "ab" * 32) and ev.plans == 300
+    assert ev.at(0.02)["threshold"] == 0.95 and (ev.at(0.02)["n"], ev.at(0.02)["failures"]) == (200, 0)
+    assert ev.at(0.005) is None  # 200 clean plans bound the rate at 1.5 %, no lower
+    assert ev.at(0.06)["threshold"] == GRID[0]  # 10 of 300 failed: 5.2 % bound
+    assert "0 failed" in ev.describe(0.02) and "never called likely" in ev.describe(0.005)
+
+
+def test_plans_that_break_a_limit_or_lie_outside_the_data_unchecked_are_no_evidence():
+    rows = ([_row(0.999, True)] * 150 + [_row(0.999, False, max_constraint_violation=0.5)] * 50
+            + [_row(0.999, False, outside_judge_data=["mu = 4"])] * 50)
+    ev = next(iter(fit_evidence(rows).values()))
+    assert ev.grid[-1]["n"] == 150 and ev.grid[-1]["failures"] == 0 and ev.at(0.02) is not None
+
+
+def test_a_calibrated_lift_of_a_low_judge_p_goes_only_as_far_as_such_lifts_succeeded():
+    lifted = [_row(0.3, i < 4, calibrated_success=0.9, calibration_covers=True) for i in range(19)]
+    ev = next(iter(fit_evidence(lifted + [_row(0.999, True)] * 200).values()))
+    assert (ev.raised["n"], ev.raised["successes"]) == (19, 4)
+    assert ev.raise_floor == pytest.approx(lower_bound(4, 19), abs=1e-6) and ev.raise_floor < 0.3
+    assert capped(0.3, 0.9, ev.raise_floor) == 0.3  # the evidence does not back the lift
+    assert capped(0.3, 0.9, 0.6) == 0.6 and capped(0.3, 0.2, 0.6) == 0.2  # lowering is free
+    assert capped(0.7, 0.95, 0.0) == 0.95  # a judge's p at or above 0.5 is not a lift across it
+    assert ev.grid[0]["n"] == 200  # the lifted plans, back at their judge's p, are not called likely
+
+
+def test_the_evidence_speaks_inside_its_ranges_only():
+    rows = [_row(0.999, True, environment={"y_obj": 0.1 + i / 1000, "mu": 2.0}) for i in range(200)]
+    evidence = fit_evidence(rows)
+    inside, beyond = {}, {}
+    annotate(inside, evidence, "direct", "ab" * 32, {"qdot_max": 0.5, "f_max": 13.0, "y_obj": 0.2, "mu": 2.0})
+    assert inside["likely_at"] == 0.5 and inside["risk"]["n"] == 200
+    annotate(beyond, evidence, "direct", "ab" * 32, {"qdot_max": 0.5, "f_max": 13.0, "y_obj": 0.35, "mu": 2.0})
+    assert "likely_at" not in beyond and "y_obj 0.35 (0.1-0.299)" in beyond["risk"]["evidence"]
+    other = {"likely_at": 0.7}
+    annotate(other, evidence, "direct", "cd" * 32, {"y_obj": 0.2})  # another judge: none, and nothing stale kept
+    assert other == {}
+
+
+def test_evidence_round_trips_through_its_dict():
+    ev = next(iter(fit_evidence([_row(0.999, True)] * 30).values()))
+    assert Evidence.from_dict(ev.to_dict()) == ev
