@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 from judgeopt.planners.constraints import RATE_LIMITS
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import PlanResult, recommended
+from judgeopt.planners.result import LIKELY, PlanResult, recommended, verdict_of
 from judgeopt.planners.base import spec_of
 from judgeopt.planners.loaded import Planners
 from judgeopt.tasks import Task, get_task
@@ -108,9 +108,11 @@ def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) 
     relaxed = planners.with_limits(**{name: value})
     fastest = next(m for m in relaxed.methods if not spec_of(m).closed_loop)
     r = recommended(relaxed.only(fastest).solve(env, guess=guess))
-    # a screen: the fast planner's p where its soft plan breaks a limit too (the suggestion itself is
-    # planned again by every planner and must be called likely)
-    return (-1.0, False) if r is None else (r.success_probability, r.verdict == "likely")
+    # a screen: the fast planner's p, at the threshold the evidence sets for it, where its soft plan
+    # breaks a limit too (the suggestion itself is planned again by every planner and must be called likely)
+    if r is None:
+        return -1.0, False
+    return r.success_probability, verdict_of(r.success_probability, likely_at=r.info.get("likely_at", LIKELY)) == "likely"
 
 
 def printable(value: float, direction: int, limit: float, digits: int = 3) -> float:
