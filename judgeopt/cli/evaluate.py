@@ -453,7 +453,7 @@ def _fit_calibration(args: argparse.Namespace) -> dict:
 def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     """The held-out evidence per planner and judge (judgeopt.verdict.risk), from plans the
     calibration was not fitted on, their p recomputed by that calibration; printed at --risk."""
-    from judgeopt.planners.calibration import CalibrationError, calibrate_rows, env_fingerprint
+    from judgeopt.planners.calibration import CalibrationError, calibrate_rows
     from judgeopt.verdict.risk import RISK, fit_evidence
 
     rows = [r for r in _evaluated_rows(args.evidence) if r.get("method") and r.get("environment")]
@@ -464,7 +464,7 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     if seen:
         raise CalibrationError(f"--evidence: {seen} of its {len(rows)} plans are at environments and limits the "
                                "calibration was fitted on; the evidence must be held out (evaluate on another --seed)")
-    evidence = fit_evidence(rows, confidence=args.confidence, fingerprint=lambda env: env_fingerprint(env.values()))
+    evidence = fit_evidence(rows, confidence=args.confidence)
     for e in evidence.values():
         e.sources = list(args.evidence)
         print(f"evidence, {e.method} ({e.plans} plans; judge p raised above 0.5 by the calibration: "

@@ -18,7 +18,7 @@ plans succeeded where the map said 0.8-0.9.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field
-from typing import Any, Callable, Iterable, Mapping
+from typing import Any, Iterable, Mapping
 
 import numpy as np
 
@@ -67,8 +67,7 @@ class Evidence:
     raised: dict[str, float]  # {n, successes, floor}: plans whose judge p < RAISE_FROM and calibrated p >= it
     plans: int = 0
     ranges: dict[str, list[float]] = field(default_factory=dict)  # each limit's and variable's [lo, hi] in the plans
-    sources: list[str] = field(default_factory=list)
-    fingerprints: list[str] = field(default_factory=list)  # the environments (calibration.env_fingerprint)
+    sources: list[str] = field(default_factory=list)  # the evaluation folders it was counted from
 
     @property
     def raise_floor(self) -> float:
@@ -88,7 +87,7 @@ class Evidence:
     def at(self, risk: float = RISK) -> dict[str, float] | None:
         """The grid row that sets "likely" at this risk (the lowest threshold whose bound is <= the
         risk), or None where none is."""
-        return next((g for g in self.grid if g["n"] > 0 and g["bound"] <= risk), None)
+        return next((g for g in self.grid if g["bound"] <= risk), None)  # no plans: bound 1
 
     def describe(self, risk: float = RISK) -> str:
         row = self.at(risk)
@@ -138,25 +137,24 @@ def capped(predicted: float | None, calibrated: float, floor: float) -> float:
     return min(calibrated, max(predicted, floor))
 
 
-def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDENCE, grid: Iterable[float] = GRID,
-                 fingerprint: Callable[[Mapping[str, float]], str] | None = None) -> dict[str, Evidence]:
+def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDENCE,
+                 grid: Iterable[float] = GRID) -> dict[str, Evidence]:
     """Per planner and judge, from replayed result rows whose calibrated p was computed by the
     calibration the evidence is stored with (calibration.calibrate_rows). Counted: plans with a
-    p that hold their limits and lie inside the judge's data or a calibration's cover.
-    `fingerprint`: names each row's environment, to refuse evidence a calibration was fitted on."""
-    by: dict[str, list[Mapping[str, Any]]] = {}
+    p that hold their limits and lie inside the judge's data or a calibration's cover."""
+    by: dict[tuple[str, str | None], list[Mapping[str, Any]]] = {}
     for r in rows:
         if r.get("method") and r.get("simulated_success") is not None and r.get("predicted_success") is not None:
-            by.setdefault(evidence_key(r["method"], r.get("judge_sha256")), []).append(r)
+            by.setdefault((r["method"], r.get("judge_sha256")), []).append(r)
     out = {}
-    for key, rs in sorted(by.items()):
+    for (method, sha), rs in sorted(by.items(), key=lambda kv: evidence_key(*kv[0])):
         y = np.array([bool(r["simulated_success"]) for r in rs])
         judge = np.array([r["predicted_success"] for r in rs], float)
         covered = np.array([bool(r.get("calibration_covers")) and r.get("calibrated_success") is not None for r in rs])
         cal = np.array([r["calibrated_success"] if c else j for r, c, j in zip(rs, covered, judge)], float)
         raised = covered & (judge < RAISE_FROM) & (cal >= RAISE_FROM)
         floor = lower_bound(int(y[raised].sum()), int(raised.sum()), confidence)
-        p = np.array([capped(j, c, floor) if cov else j for j, c, cov in zip(judge, cal, covered)])
+        p = np.array([capped(j, c, floor) for j, c in zip(judge, cal)])  # uncovered: c is the judge's own
         eligible = np.array([(r.get("max_constraint_violation") or 0.0) <= HOLD_TOL
                              and (cov or not r.get("outside_judge_data")) for r, cov in zip(rs, covered)])
         table = []
@@ -166,10 +164,9 @@ def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDEN
             table.append({"threshold": float(t), "n": n, "failures": k, "bound": round(upper_bound(k, n, confidence), 6)})
         values = [{**{k: v for k, v in r.get("limits", {}).items() if isinstance(v, (int, float))}, **r["environment"]}
                   for r in rs]
-        ranges = {k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))]
-                  for k in values[0] if all(k in v for v in values)}
-        out[key] = Evidence(rs[0]["method"], rs[0].get("judge_sha256"), confidence, table,
-                            {"n": int(raised.sum()), "successes": int(y[raised].sum()), "floor": round(floor, 6)},
-                            plans=len(rs), ranges=ranges, sources=sorted({str(r.get("_source", "")) for r in rs} - {""}),
-                            fingerprints=sorted({fingerprint(r["environment"]) for r in rs}) if fingerprint else [])
+        common = set(values[0]).intersection(*values[1:])
+        out[evidence_key(method, sha)] = Evidence(
+            method, sha, confidence, table,
+            {"n": int(raised.sum()), "successes": int(y[raised].sum()), "floor": round(floor, 6)}, plans=len(rs),
+            ranges={k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))] for k in sorted(common)})
     return out

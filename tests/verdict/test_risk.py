@@ -72,3 +72,69 @@ def test_the_evidence_speaks_inside_its_ranges_only():
 def test_evidence_round_trips_through_its_dict():
     ev = next(iter(fit_evidence([_row(0.999, True)] * 30).values()))
     assert Evidence.from_dict(ev.to_dict()) == ev
+
+
+def test_what_a_result_carries_word_for_word():
+    rows = [_row(0.996, True)] * 200 + [_row(0.92, i >= 10) for i in range(100)]
+    ev = next(iter(fit_evidence(rows, confidence=0.9).values()))
+    row = ev.at(0.02)
+    assert row == {"threshold": 0.95, "n": 200, "failures": 0, "bound": round(1 - 0.1 ** (1 / 200), 6)}
+    assert ev.describe(0.02) == ("likely at p >= 0.95: of 200 held-out plans of direct there, 0 failed "
+                                 f"(90 % upper bound {100 * row['bound']:.1f} % <= risk 2 %)")
+    best = min(ev.grid, key=lambda g: g["bound"])
+    assert ev.describe(0.001) == ("no threshold holds a 0.1 % risk on 300 held-out plans of direct (the best: "
+                                  f"p >= {best['threshold']:g}, 0 of 200 failed, 90 % bound {100 * best['bound']:.1f} %), "
+                                  "so it is never called likely at that risk")
+    target = {"raise_floor": 0.3, "likely_at": 0.1, "risk": {}, "kept": 1}
+    annotate(target, {evidence_key("direct", "ab" * 32): ev}, "direct", "ab" * 32, {"y_obj": 0.2}, 0.02)
+    assert target == {"kept": 1, "raise_floor": 0.0, "likely_at": 0.95,
+                      "risk": {"risk": 0.02, "confidence": 0.9, **row, "evidence": ev.describe(0.02)}}
+    annotate(target, {evidence_key("direct", "ab" * 32): ev}, "direct", "ab" * 32, {"y_obj": 0.2}, 0.001)
+    assert target["likely_at"] is None and target["risk"]["evidence"] == ev.describe(0.001)
+    far = {}
+    annotate(far, {evidence_key("direct", "ab" * 32): ev}, "direct", "ab" * 32, {"qdot_max": 0.9}, 0.02)
+    assert far == {"risk": {"risk": 0.02, "evidence": "unchecked here: 'likely' is p >= 0.5, as the held-out plans "
+                                                      "of direct were drawn inside other ranges (qdot_max 0.9 (0.5-0.5))"}}
+
+
+def test_the_edges_of_each_rule():
+    assert capped(0.5, 0.9, 0.0) == 0.9  # a judge's 0.5 is not below 0.5: no lift across it
+    assert capped(None, 0.9, 0.0) == 0.9 and capped(0.49, 0.49, 0.0) == 0.49
+    ev = Evidence("direct", None, 0.95, [{"threshold": 0.9, "n": 10, "failures": 0, "bound": 0.02}], {})
+    assert ev.at(0.02)["threshold"] == 0.9 and ev.at(0.0199) is None  # a bound equal to the risk holds it
+    assert ev.raise_floor == 0.0 and evidence_key("direct", None) == "direct@unknown"
+    assert evidence_key("direct", "0123456789abcdef0123") == "direct@0123456789abcdef"
+    ev.ranges = {"f_max": [10.0, 20.0], "mu": [2.0, 2.0]}
+    assert ev.outside({"f_max": 20.19, "mu": 2.0}) == [] and ev.outside({"f_max": 9.81}) == []  # 2 % of the width
+    assert ev.outside({"f_max": 20.3, "mu": 2.0 + 1e-6}) == ["f_max 20.3 (10-20)", "mu 2 (2-2)"]
+    assert ev.outside({"f_max": [30.0], "other": 5.0}) == []  # per-axis values and names it never saw: not judged
+    assert Evidence.from_dict({"method": "m", "judge_sha256": None, "confidence": 0.95, "grid": [], "raised": {}}).plans == 0
+
+
+def test_which_rows_count():
+    base = [_row(0.999, True)] * 150
+    extra = [{**_row(0.999, False), "method": None}, {**_row(0.999, False), "simulated_success": None},
+             {**_row(None, False)}]
+    assert next(iter(fit_evidence(base + extra).values())).plans == 150  # no method, outcome or p: not a plan
+    # a calibrated p counts only where the calibration covers the plan (and says a number)
+    uncovered = [_row(0.3, False, calibrated_success=0.999, calibration_covers=False)] * 20
+    nothing = [_row(0.3, False, calibration_covers=True)] * 20
+    ev = next(iter(fit_evidence(base + uncovered + nothing).values()))
+    assert ev.grid[-1] == {"threshold": 0.999, "n": 150, "failures": 0, "bound": round(upper_bound(0, 150), 6)}
+    assert ev.raised["n"] == 0
+    exactly = [_row(0.3, True, calibrated_success=0.5, calibration_covers=True)] * 5  # lifted to exactly 0.5
+    assert next(iter(fit_evidence(base + exactly).values())).raised == {"n": 5, "successes": 5,
+                                                                       "floor": round(lower_bound(5, 5), 6)}
+    at_tol = [_row(0.999, False, max_constraint_violation=1e-3)] * 3  # at the tolerance: holds, so it counts
+    assert next(iter(fit_evidence(base + at_tol).values())).grid[-1]["failures"] == 3
+    mixed = [_row(0.999, True, limits={"qdot_max": 0.4, "f_min": 7.5})] + [_row(0.999, True)] * 3
+    assert set(next(iter(fit_evidence(mixed).values())).ranges) == {"qdot_max", "y_obj", "mu"}  # those all have
+    two = fit_evidence([_row(0.999, True)] * 3 + [_row(0.999, True, method="amortized", judge_sha256="cd" * 32)])
+    assert {k: (e.method, e.judge_sha256, e.plans) for k, e in two.items()} == {
+        "direct@abababababababab": ("direct", "ab" * 32, 3), "amortized@cdcdcdcdcdcdcdcd": ("amortized", "cd" * 32, 1)}
+
+
+def test_the_default_risk_and_confidence_are_the_documented_two_and_ninety_five():
+    from judgeopt.verdict import risk
+
+    assert (risk.RISK, risk.CONFIDENCE, risk.RAISE_FROM) == (0.02, 0.95, 0.5)
