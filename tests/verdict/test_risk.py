@@ -64,7 +64,7 @@ def test_the_evidence_speaks_inside_its_ranges_only():
     assert inside["likely_at"] == 0.5 and inside["risk"]["n"] == 200
     annotate(beyond, evidence, "direct", "ab" * 32, {"qdot_max": 0.5, "f_max": 13.0, "y_obj": 0.35, "mu": 2.0})
     assert "likely_at" not in beyond and "y_obj 0.35 (0.1-0.299)" in beyond["risk"]["evidence"]
-    other = {"likely_at": 0.7}
+    other = {"likely_at": 0.7, "raise_floor": 0.4, "risk": {"risk": 0.02}}
     annotate(other, evidence, "direct", "cd" * 32, {"y_obj": 0.2})  # another judge: none, and nothing stale kept
     assert other == {}
 
