@@ -285,9 +285,11 @@ def save_calibration(path: str | Path, calibrators: dict[str, Calibrator],
     return path
 
 
-def load_calibration(path: str | Path) -> dict[str, Calibrator]:
-    """Every calibrator in the file, validated: a version-1 file (coverage judged axis by axis,
-    no monotone map) is refused with the command that refits it."""
+def load_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict[str, Evidence]]:
+    """Every calibrator in the file and its held-out evidence per planner and judge
+    (judgeopt.verdict.risk.evidence_key; empty where it has none: every verdict's risk is then
+    unchecked), validated: a version-1 file (coverage judged axis by axis, no monotone map) is
+    refused with the command that refits it."""
     path = Path(path)
     if path.is_dir():
         raise CalibrationError(f"{path}: a folder, not a calibration file (give the .json that "
@@ -311,23 +313,25 @@ def load_calibration(path: str | Path) -> dict[str, Calibrator]:
                 len(p) != width for p in c.points):
             raise CalibrationError(f"{path}: setting {k} has weights or fitted points of the wrong size for its "
                                    "inputs; refit it with `judgeopt calibrate`")
-    return out
-
-
-def load_evidence(path: str | Path) -> dict[str, Evidence]:
-    """The file's held-out evidence per planner and judge (judgeopt.verdict.risk.evidence_key);
-    empty where it has none (every verdict's risk is then unchecked)."""
-    path = Path(path)
-    load_calibration(path)  # the same checks, the same one-line errors
     try:
-        out = {k: Evidence.from_dict(v) for k, v in json.loads(path.read_text()).get("evidence", {}).items()}
-        for k, e in out.items():
+        evidence = {k: Evidence.from_dict(v) for k, v in doc.get("evidence", {}).items()}
+        for k, e in evidence.items():
             if not e.grid or any(set(g) != {"threshold", "n", "failures", "bound"} for g in e.grid):
                 raise ValueError(f"evidence {k} has no threshold table")
     except (TypeError, ValueError, AttributeError) as exc:
         raise CalibrationError(f"{path}: malformed evidence ({exc}); recompute it with `judgeopt calibrate "
                                f"--evidence FOLDER... --out {path}`") from None
-    return out
+    return out, evidence
+
+
+def load_calibration(path: str | Path) -> dict[str, Calibrator]:
+    """Every calibrator in the file, validated (load_calibration_file)."""
+    return load_calibration_file(path)[0]
+
+
+def load_evidence(path: str | Path) -> dict[str, Evidence]:
+    """The file's held-out evidence, validated with its calibrators (load_calibration_file)."""
+    return load_calibration_file(path)[1]
 
 
 def inputs(limits: dict[str, Any], env: dict[str, float]) -> dict[str, float]:

@@ -212,7 +212,7 @@ class Planners:
 
     def _settings(self) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.planners.calibration import load_calibration, load_evidence, lookup
+        from judgeopt.planners.calibration import load_calibration_file, lookup
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
@@ -226,8 +226,7 @@ class Planners:
                                   "judge's own, uncalibrated (fit one with `judgeopt calibrate`)")
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
-            self.calibration_file = load_calibration(path)
-            self.evidence = load_evidence(path)
+            self.calibration_file, self.evidence = load_calibration_file(path)
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
