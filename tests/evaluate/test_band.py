@@ -127,3 +127,27 @@ def test_calibrate_refuses_evidence_the_calibration_was_fitted_on(tmp_path, caps
     capsys.readouterr()
     assert main(["calibrate", "--evidence", str(tmp_path / "fit"), "--out", str(cal)]) == ExitCode.BAD_INPUT
     assert "60 of its 60 plans are at environments and limits the calibration was fitted on" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_small_band_plans_replays_reports_and_resumes(tmp_path, capsys):
+    """Two settings, every default planner, replayed; a rerun plans nothing again."""
+    out = tmp_path / "band"
+    argv = ["evaluate", "band", "--n", "2", "--chunk", "1", "--jobs", "1", "--seed", "5", "--out", str(out), "--quiet"]
+    assert main(argv) == 0
+    rows = [r for p in sorted((out / "partial").glob("*.json")) for r in json.loads(p.read_text())]
+    assert sorted((r["env_index"], r["method"]) for r in rows) == [(0, "amortized"), (0, "direct"),
+                                                                   (1, "amortized"), (1, "direct")]
+    problem = load_problem(resolve("problems/paper_sim.toml"))
+    for r in rows:  # each at its own drawn setting, replayed, with its plan's samples
+        drawn = draw_setting(problem, default_band(problem.task), 5, r["env_index"])
+        assert r["environment"] == drawn["environment"] and r["band_limits"] == drawn["limits"]
+        assert all(r["limits"][k] == v for k, v in drawn["limits"].items())
+        assert isinstance(r["simulated_success"], bool) and len(r["t"]) == problem.steps + 1
+    summary = json.loads((out / "band.json").read_text())
+    assert summary["settings"] == 2 and [s["plans"] for s in summary["planners"]] == [2, 2]
+    assert (out / "band.md").exists() and (out / "band.png").stat().st_size > 10_000
+    stamps = {p: p.stat().st_mtime_ns for p in (out / "partial").glob("*.json")}
+    capsys.readouterr()
+    assert main(argv) == 0  # resumed: every chunk read back, none planned again
+    assert {p: p.stat().st_mtime_ns for p in (out / "partial").glob("*.json")} == stamps
