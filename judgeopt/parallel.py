@@ -9,6 +9,8 @@ build (simulators, loaded planners) in `worker_cache` between chunks.
 from __future__ import annotations
 
 import contextlib
+import json
+from pathlib import Path
 from typing import Any, Callable, Iterator, Sequence
 
 _CACHE: dict[str, Any] = {}
@@ -86,3 +88,17 @@ def run_chunks(work: Sequence[tuple[Any, Callable, tuple]], save: Callable[[Any,
             bar.update(size(key))
     return out
 
+
+
+def run_json_chunks(work: Sequence[tuple[Path, Callable, tuple]], *, n_jobs: int = -1, scheduler: str | None = None,
+                    progress: bool = True, desc: str = "") -> list[Any]:
+    """Each chunk's result: read back from its JSON file where one exists, else `fn(*args)` run in
+    parallel (run_chunks) and written there atomically as it arrives, so a rerun resumes. In the
+    order of `work`."""
+    from judgeopt.files import atomic_write
+
+    done = {path: json.loads(path.read_text()) for path, _, _ in work if path.exists()}
+    todo = [w for w in work if w[0] not in done]
+    done.update(run_chunks(todo, lambda p, r: atomic_write(p, json.dumps(r).encode()), n_jobs=n_jobs,
+                           scheduler=scheduler, progress=progress, desc=f"{desc} ({len(done)} chunks already done)"))
+    return [done[path] for path, _, _ in work]

@@ -318,6 +318,24 @@ def floats(text: str) -> tuple[float, ...]:
         raise argparse.ArgumentTypeError(f"expected comma-separated finite numbers, got {text!r}") from None
 
 
+def strictly_between_0_and_1(what: str):
+    """An argument type: a number strictly between 0 and 1, else one line saying `what` it is."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not 0.0 < value < 1.0:  # nan too
+            raise argparse.ArgumentTypeError(f"{text!r}: {what}")
+        return value
+
+    return parse
+
+
+#: --risk (solve, evaluate): the failure rate a "likely" may carry
+risk_rate = strictly_between_0_and_1("a failure rate between 0 and 1 (0.02 is 2 %)")
+
+
 def value_range(text: str) -> tuple[float, float]:
     """LO,HI (two finite numbers)."""
     try:

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from judgeopt.cli.common import (CLIError, QUIET, env_range, file_path, floats, jobs_option, name_values, out_option, positive,
+                                 risk_rate, strictly_between_0_and_1,
                                  seed_option, threads_option, value_range)
 from judgeopt.files import check_writable
 from judgeopt.verdict.risk import CONFIDENCE, RISK
@@ -203,18 +204,15 @@ def cmd_edge(args: argparse.Namespace) -> int:
 
 def cmd_band(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.band import BandConfig, default_band, markdown_band, plot_band, rescore, run_band, summarise_band
-    from judgeopt.files import atomic_write, resolve
+    from judgeopt.files import atomic_write
     from judgeopt.planners.base import default_planners
-    from judgeopt.planners.calibration import load_evidence
 
     problem = _problem(args)
     band = default_band(problem.task) if not args.band else BandConfig(tuple((k, lo, hi) for k, (lo, hi) in args.band))
     cfg = dataclasses.replace(band, constrained=0.3 if args.constrained is None else args.constrained)
     methods = tuple(args.methods or default_planners())
     out = Path(args.out or "out/evaluate/band")
-    calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
-    path = args.calibration or (problem.calibration if calibrators else None)
-    evidence = load_evidence(resolve(path)) if path else {}
+    calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     rows = run_band(problem, cfg, methods, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                     chunk=args.chunk, models_dir=args.models, ensemble=args.ensemble, progress=not args.quiet)
     rescore(rows, calibrators, evidence, problem.env_names, args.risk)
@@ -340,12 +338,18 @@ def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[fl
 
 def _calibrators(problem, path: str | None) -> dict:
     """From --calibration, or the problem's file where it exists (none: no calibrated column)."""
-    from judgeopt.planners.calibration import load_calibration
+    return _calibration(problem, path)[0]
+
+
+def _calibration(problem, path: str | None) -> tuple[dict, dict]:
+    """The calibrators and held-out evidence of --calibration, or of the problem's file where it
+    exists (none: no calibrated column, every risk unchecked), read once."""
+    from judgeopt.planners.calibration import load_calibration_file
     from judgeopt.files import resolve
 
     if path is None and not (problem.calibration and resolve(problem.calibration).exists()):
-        return {}
-    return load_calibration(resolve(path or problem.calibration))
+        return {}, {}
+    return load_calibration_file(resolve(path or problem.calibration))
 
 
 def _argv(args: argparse.Namespace) -> list[str]:
@@ -393,7 +397,7 @@ def _evaluated_rows(folders: list[str]) -> list[dict]:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from judgeopt.planners.calibration import CalibrationError, load_calibration, save_calibration
+    from judgeopt.planners.calibration import CalibrationError, load_calibration_file, save_calibration
 
     check_writable([args.out])
     if not args.folders and not args.evidence:
@@ -403,11 +407,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if not args.folders and not out.exists():
         raise CalibrationError(f"--evidence: {out} holds no calibration to add it to; fit one first with "
                                f"`judgeopt calibrate FOLDER... --out {out}`")
-    kept = load_calibration(out) if out.exists() and not args.replace else {}
+    kept, old_evidence = load_calibration_file(out) if out.exists() else ({}, {})
+    kept = {} if args.replace else kept
     fitted = _fit_calibration(args) if args.folders else {}
     calibrators = {**{k: v for k, v in kept.items() if k not in fitted}, **fitted}
     evidence = _risk_evidence(args, calibrators) if args.evidence else {}
-    if fitted and not evidence and out.exists() and "evidence" in json.loads(out.read_text()):
+    if fitted and not evidence and old_evidence:
         print(f"note: the held-out evidence in {out} described the calibration being replaced and is dropped; "
               "recompute it with --evidence FOLDER (`judgeopt evaluate band` on another seed)")
     save_calibration(out, calibrators, evidence)
@@ -452,7 +457,7 @@ def _fit_calibration(args: argparse.Namespace) -> dict:
 
 def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     """The held-out evidence per planner and judge (judgeopt.verdict.risk), from plans the
-    calibration was not fitted on, their p recomputed by that calibration; printed at --risk."""
+    calibration was not fitted on, their p recomputed by that calibration; printed at the default risk."""
     from judgeopt.planners.calibration import CalibrationError, calibrate_rows
     from judgeopt.verdict.risk import RISK, fit_evidence
 
@@ -525,7 +530,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--constrained", type=float, metavar="SHARE", help="band: the share of settings that also draw a "
                    "constraint set (a_max, jerk_max, fdot_max, an early force cap; default 0.3)")
     e.add_argument("--ensemble", metavar="DIR", help="band: a judge ensemble whose members' p each plan records")
-    e.add_argument("--risk", type=float, default=RISK, metavar="R", help="band: the risk behind 'likely' (as solve --risk)")
+    e.add_argument("--risk", type=risk_rate, default=RISK, metavar="R", help="band: the risk behind 'likely' (as solve --risk)")
     e.add_argument("--n", type=positive, default=100, help="environments per row (band: settings)")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
@@ -553,7 +558,8 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     c.add_argument("--evidence", nargs="+", metavar="DIR", help="evaluation folders the calibration was NOT fitted on "
                    "(`judgeopt evaluate band` on another seed): per planner, the threshold of 'likely' at each risk "
                    "(solve --risk) and the raise a calibrated p may make over a judge's p below 0.5, stored in --out")
-    c.add_argument("--confidence", type=float, default=CONFIDENCE, help="confidence of the evidence's Clopper-Pearson "
+    c.add_argument("--confidence", type=strictly_between_0_and_1("a confidence between 0 and 1 (0.95 is 95 %)"),
+                   default=CONFIDENCE, help="confidence of the evidence's Clopper-Pearson "
                    "bounds")
     c.add_argument("--out", default="out/calibration.json", metavar="FILE", type=file_path,
                    help="calibration file: its other settings "

@@ -139,14 +139,15 @@ def _ensemble(p: Path) -> dict[str, Any]:
 
 def _calibration(p: Path) -> dict[str, Any]:
     """Its calibrators, and the held-out evidence behind "likely" per planner (at the default risk)."""
-    from judgeopt.planners.calibration import describe, load_calibration, load_evidence
+    from judgeopt.planners.calibration import describe, load_calibration_file
     from judgeopt.verdict.risk import RISK
 
+    calibrators, found = load_calibration_file(p)
     evidence = [{"planner": k, "plans": e.plans, "confidence": e.confidence, "sources": e.sources,
                  "ranges": {n: [round(lo, 4), round(hi, 4)] for n, (lo, hi) in e.ranges.items() if hi > lo},
                  f"at risk {RISK:g}": e.describe(RISK), "raised above 0.5 by the calibration": e.raised,
-                 "thresholds": e.grid} for k, e in load_evidence(p).items()]
-    return {"path": str(p), "settings": [describe(c) for c in load_calibration(p).values()], "evidence": evidence}
+                 "thresholds": e.grid} for k, e in found.items()]
+    return {"path": str(p), "settings": [describe(c) for c in calibrators.values()], "evidence": evidence}
 
 
 def _trust_region(p: Path) -> dict[str, Any]:

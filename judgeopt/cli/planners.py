@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from datetime import datetime, timezone
 from pathlib import Path
@@ -12,6 +11,7 @@ from typing import Any, Callable
 
 
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add_plugin_option, command_line, env_assignment,
+                                 risk_rate,
                                  figure_path,
                                  file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
@@ -178,17 +178,6 @@ def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
         from judgeopt.planners.trust_region import load_trust_region
 
         load_trust_region(resolve(problem.trust_model, (".json",)))
-
-
-def risk_share(text: str) -> float:
-    """--risk: a failure rate in (0, 1)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    if not 0.0 < value < 1.0:  # nan too
-        raise argparse.ArgumentTypeError(f"{text!r}: a failure rate between 0 and 1 (0.02 is 2 %)")
-    return value
 
 
 def risk_line(r) -> str:
@@ -579,7 +568,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    "over the grid; the other planners plan for its middle")
     s.add_argument("--explain", action="store_true", help="also print what the table's judge, success p and verdict "
                    "columns mean, and the held-out evidence behind each planner's 'likely'")
-    s.add_argument("--risk", type=risk_share, default=RISK, metavar="R",
+    s.add_argument("--risk", type=risk_rate, default=RISK, metavar="R",
                    help=f"the failure rate a 'likely' may carry, as a {100 * CONFIDENCE:g} %% upper confidence bound on "
                    f"held-out replayed plans of the planner (default {RISK:g}); a plan above 0.5 but under the threshold "
                    "that risk sets is 'uncertain'")

@@ -17,6 +17,7 @@ OUT/partial/ as they finish; a rerun resumes.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 from dataclasses import asdict, dataclass
@@ -25,7 +26,6 @@ from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
-from judgeopt.files import atomic_write
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
 
 if TYPE_CHECKING:
@@ -82,10 +82,8 @@ def draw_setting(problem: Problem, cfg: BandConfig, seed: int, index: int) -> di
         env.update({k: round(v, 4) for k, v in values.items() if k in env})
         constraints = {}
         if rng.random() < cfg.constrained:
-            try:
+            with contextlib.suppress(ProblemError):  # no feasible set at these limits: the setting stays unconstrained
                 constraints = draw_constraints(rng, p, envs=[env])
-            except ProblemError:  # no feasible set at these limits: the setting stays unconstrained
-                constraints = {}
         return {"limits": limits, "environment": env, "constraints": constraints}
     raise ProblemError(f"the band {cfg.ranges} gives contradicting limits in 20 draws; narrow it")
 
@@ -139,25 +137,18 @@ def run_band(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], n: int
              ensemble: str | None = None, progress: bool = True) -> list[dict]:
     """Every setting's rows, resumable from OUT/partial/ (chunks named by the problem, the band,
     the methods and the models folder: another sweep never reuses them)."""
-    from judgeopt.parallel import run_chunks
+    from judgeopt.parallel import run_json_chunks
 
     cfg.check(problem)
     draw_setting(problem, cfg, seed, 0)  # a band that contradicts the problem fails here, before any work
     blob = json.dumps([problem.to_dict(), asdict(cfg), list(methods), models_dir, ensemble], sort_keys=True,
                       default=str)
     tag = hashlib.sha256(blob.encode()).hexdigest()[:8]
-    partial = Path(out) / "partial"
-    done, todo = {}, []
-    for start in range(0, n, chunk):
-        count = min(chunk, n - start)
-        path = partial / f"band__{start:05d}_c{count}_s{seed}_p{tag}.json"
-        if path.exists():
-            done[path] = json.loads(path.read_text())
-        else:
-            todo.append((path, band_chunk, (problem, cfg, methods, start, count, seed, models_dir, ensemble)))
-    done.update(run_chunks(todo, lambda p, r: atomic_write(p, json.dumps(r).encode()), n_jobs=n_jobs,
-                           scheduler=scheduler, progress=progress, desc=f"band ({len(done)} chunks already done)"))
-    return sorted((r for rs in done.values() for r in rs), key=lambda r: r["env_index"])
+    work = [(Path(out) / "partial" / f"band__{start:05d}_c{min(chunk, n - start)}_s{seed}_p{tag}.json", band_chunk,
+             (problem, cfg, methods, start, min(chunk, n - start), seed, models_dir, ensemble))
+            for start in range(0, n, chunk)]
+    done = run_json_chunks(work, n_jobs=n_jobs, scheduler=scheduler, progress=progress, desc="band")
+    return sorted((r for rs in done for r in rs), key=lambda r: r["env_index"])
 
 
 def rescore(rows: list[dict], calibrators: dict, evidence: dict, env_names: Sequence[str], risk: float) -> None:

@@ -29,7 +29,6 @@ import numpy as np
 
 from judgeopt.evaluate.feasibility import SearchConfig, search
 from judgeopt.evaluate.report import cell, verdict_stats
-from judgeopt.files import atomic_write
 from judgeopt.planners.problem import Problem, ProblemError
 from judgeopt.planners.result import overall_verdict
 
@@ -159,23 +158,16 @@ def run_edge(problem: Problem, cfg: EdgeConfig, methods: tuple[str, ...], n: int
     """Every environment's rows, resumable from OUT/partial/ (chunks named by the problem, the
     configuration and the methods: another sweep never reuses them)."""
     from judgeopt.evaluate.tables import Row, environments
-    from judgeopt.parallel import run_chunks
+    from judgeopt.parallel import run_json_chunks
 
     edge_direction(problem, cfg)  # a bad limit or task fails here, before any work
     envs = environments(problem, Row("edge", "edge", None, vary), n, seed)
     blob = json.dumps([problem.to_dict(), asdict(cfg), list(methods), models_dir], sort_keys=True, default=str)
     tag = hashlib.sha256(blob.encode()).hexdigest()[:8]
-    partial = Path(out) / "partial"
-    done, todo = {}, []
-    for start in range(0, n, chunk):
-        path = partial / f"edge_{cfg.limit}__{start:05d}_n{n}_s{seed}_p{tag}.json"
-        if path.exists():
-            done[path] = json.loads(path.read_text())
-        else:
-            todo.append((path, edge_chunk, (problem, cfg, methods, envs[start:start + chunk], start, seed, models_dir)))
-    done.update(run_chunks(todo, lambda p, r: atomic_write(p, json.dumps(r).encode()), n_jobs=n_jobs,
-                           scheduler=scheduler, progress=progress, desc=f"edge sweep ({len(done)} chunks already done)"))
-    return sorted((r for rs in done.values() for r in rs), key=lambda r: (r["env_index"], r.get("offset", 0)))
+    work = [(Path(out) / "partial" / f"edge_{cfg.limit}__{start:05d}_n{n}_s{seed}_p{tag}.json", edge_chunk,
+             (problem, cfg, methods, envs[start:start + chunk], start, seed, models_dir)) for start in range(0, n, chunk)]
+    done = run_json_chunks(work, n_jobs=n_jobs, scheduler=scheduler, progress=progress, desc="edge sweep")
+    return sorted((r for rs in done for r in rs), key=lambda r: (r["env_index"], r.get("offset", 0)))
 
 
 def summarise_edge(rows: Sequence[dict], methods: Sequence[str]) -> dict:

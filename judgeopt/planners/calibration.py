@@ -329,11 +329,6 @@ def load_calibration(path: str | Path) -> dict[str, Calibrator]:
     return load_calibration_file(path)[0]
 
 
-def load_evidence(path: str | Path) -> dict[str, Evidence]:
-    """The file's held-out evidence, validated with its calibrators (load_calibration_file)."""
-    return load_calibration_file(path)[1]
-
-
 def inputs(limits: dict[str, Any], env: dict[str, float]) -> dict[str, float]:
     """A plan's limits and environment as a calibrator reads them: a per-axis limit (a task with
     several position axes) becomes one input per axis, `q_min[0]`, `q_min[1]`."""

@@ -74,7 +74,7 @@ def test_the_plan_to_run_is_counted_per_setting():
 
 def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
     """Evidence from plans the calibration never saw, built so that p >= 0.95 holds a 2 % risk."""
-    from judgeopt.planners.calibration import load_evidence
+    from judgeopt.planners.calibration import load_calibration_file
     from judgeopt.judge.store import load_judge
 
     sha = load_judge(resolve("models/judge_refined"))[1]["weights_sha256"]
@@ -90,7 +90,7 @@ def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
     cal.write_bytes(resolve("models/calibration_default.json").read_bytes())
     assert main(["calibrate", "--evidence", str(tmp_path / "band"), "--out", str(cal)]) == 0
     assert "likely at p >= 0.95: of 200 held-out plans of direct there, 0 failed" in capsys.readouterr().out
-    (ev,) = load_evidence(cal).values()
+    (ev,) = load_calibration_file(cal)[1].values()
     assert ev.ranges["qdot_max"] == [0.3, pytest.approx(0.897)] and ev.sources == [str(tmp_path / "band")]
     base = ["solve", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal), "--f-max", "20"]
     for risk, likely_at in (("0.02", 0.95), ("0.06", 0.5), ("0.001", None)):
