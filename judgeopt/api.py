@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any, Mapping, Sequence
 
 from judgeopt.planners.problem import FIELDS, Problem, ProblemError, find_problem
 from judgeopt.planners.problem import load_problem as _load_problem_file
+from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.tasks import DEFAULT_TASK
 from judgeopt.threads import DEFAULT_THREADS, torch_threads
 from judgeopt.verdict.risk import RISK
@@ -85,7 +86,7 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
     else:
         planners = load_planners(given.with_overrides(**overrides) if overrides else given, methods)
     planners = dataclasses.replace(planners, risk=risk)
-    sim = simulator(planners.problem.task) if simulate else None
+    sim = simulator(planners.problem.task, planners.problem.robot) if simulate else None
     try:
         with torch_threads(threads):
             return session.solve(planners, simulator=sim, world=world, **options)
@@ -125,7 +126,8 @@ def get_task(name: str = DEFAULT_TASK) -> Task:
     return get(name)
 
 
-def simulator(task: str = DEFAULT_TASK) -> TaskSimulator:
-    """A new simulator of the task's scene: `.simulate(plan, env)` replays a plan, `.execute(plan,
-    env)` steps it (close it when done)."""
-    return get_task(task).simulator()
+def simulator(task: str = DEFAULT_TASK, robot: str = DEFAULT_ROBOT) -> TaskSimulator:
+    """A new simulator of the task's scene with the arm `robot` (`judgeopt robots`): `.simulate(plan,
+    env)` replays a plan, `.execute(plan, env)` steps it (close it when done)."""
+    t = get_task(task)
+    return t.simulator(t.robot_settings(robot))

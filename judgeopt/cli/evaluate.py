@@ -72,7 +72,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         return cmd_robustness(args)
     if args.table == "trials":
         return cmd_trials(args)
-    problem = load_problem(resolve(args.problem or _default_problem(args.table)))
+    problem = problem_of(args, _default_problem(args.table))
     if args.limits:
         from judgeopt.evaluate.sweep import parse_limit_set
 
@@ -131,7 +131,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.planners.result import reassess
     from judgeopt.files import resolve
 
-    problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
+    problem = problem_of(args)
     if args.judge:  # every planner against this judge (its calibration applies only where it has one)
         problem = problem.with_overrides(judge=args.judge)
     vary = _vary(problem, args.vary) if args.vary else None
@@ -246,12 +246,21 @@ def _report(args: argparse.Namespace, stem: Path, md: str, summary: list[dict], 
     return 0
 
 
+def problem_of(args: argparse.Namespace, default: str = "problems/paper_sim.toml") -> Any:
+    """--problem (or `default`) on the arm --robot names (default: the problem's)."""
+    from judgeopt.files import resolve
+    from judgeopt.planners.problem import load_problem
+
+    problem = load_problem(resolve(args.problem or default))
+    return problem.with_overrides(robot=args.robot) if args.robot else problem
+
+
 def _problem(args: argparse.Namespace) -> Any:
     """--problem with --judge, each --qdot-max checked against it before any planning."""
     from judgeopt.files import resolve
     from judgeopt.planners.problem import load_problem
 
-    problem = load_problem(resolve(args.problem or "problems/paper_sim.toml"))
+    problem = problem_of(args)
     if args.judge:
         problem = problem.with_overrides(judge=args.judge)
     for q in args.qdot_max or ():
@@ -534,6 +543,8 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--n", type=positive, default=100, help="environments per row (band: settings)")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
+    e.add_argument("--robot", metavar="NAME", help="plan for and replay on this arm (`judgeopt robots`; default: the "
+                   "problem's, ur5)")
     e.add_argument("--methods", nargs="+", choices=PlannerChoices(),
                    help="planners to include (default all of the table's)")
     add_plugin_option(e)

@@ -19,6 +19,7 @@ from judgeopt.cli.examples import example_perturbation
 from judgeopt.cli.interrupts import held
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
+from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.tasks import DEFAULT_TASK
 
 
@@ -58,6 +59,7 @@ def cmd_collect(args: argparse.Namespace) -> int:
         if not sep:
             raise CLIError(f"--set {item!r}: give KEY=VALUE, e.g. commands.constant_force_share=0.4")
         settings = with_setting(settings, key, value)
+    settings = task.robot_settings(args.robot, settings)
     randomize = task.check_randomization(dict(args.randomize or []))  # names, order, physical range: one line
     partial = Path(args.out).with_name(Path(args.out).name + ".partial")
     if not partial.exists():  # an unfinished collection resumes; a finished file is kept
@@ -116,7 +118,7 @@ def cmd_render(args: argparse.Namespace) -> int:
         picks = list(args.index)
     if not picks:
         raise CLIError(f"{args.data} has no demonstrations of the requested kind")
-    sim = task.simulator(render=True)
+    sim = task.simulator(task.robot_settings(args.robot or ds.robot), render=True)
     for i in picks:
         if not 0 <= i < ds.n:
             raise CLIError(f"--index {i} is out of range: {args.data} holds {ds.n} demonstrations")
@@ -143,7 +145,7 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
 
 
 #: the commands that never import torch (listings, plots of data files): the others import it first, holding Ctrl-C
-NO_TORCH = frozenset({"tasks", "plot-data"})
+NO_TORCH = frozenset({"tasks", "robots", "plot-data"})
 EXIT_CODES_HELP = "exit codes:\n" + "\n".join(f"  {c.value:<4} {text}" for c, text in EXIT_MEANINGS.items())
 
 
@@ -182,6 +184,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--focus-tries", type=positive,
                    help="candidates per demonstration before the last is kept anyway (with --focus; default: "
                    "JudgeFocus.tries, 50)")
+    c.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME",
+                   help="the arm that runs the demonstrations (`judgeopt robots` lists them; default: %(default)s)")
     c.add_argument("--chunk", type=positive, default=25, help="demonstrations per work unit (and per resume step)")
     c.set_defaults(func=cmd_collect)
 
@@ -193,9 +197,11 @@ def build_parser() -> argparse.ArgumentParser:
 
     from judgeopt.cli.inspect import add_inspect_command
     from judgeopt.cli.models import add_models_command
+    from judgeopt.cli.robots import add_robots_command
 
     add_inspect_command(sub)
     add_models_command(sub)
+    add_robots_command(sub, [JSON])
 
     r = sub.add_parser("render", help="replay demonstrations in PyBullet and save GIFs",
                        description="Replays demonstrations of a dataset with the headless renderer.",
@@ -204,6 +210,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--successes", type=int, default=2, help="how many successful demonstrations (the first ones)")
     r.add_argument("--failures", type=int, default=2, help="how many failed demonstrations (the first ones)")
     r.add_argument("--index", type=int, nargs="+", help="render these demonstrations (row numbers) instead")
+    r.add_argument("--robot", metavar="NAME", help="replay on this arm (`judgeopt robots`; default: the one the "
+                   "dataset was collected on)")
     r.set_defaults(func=cmd_render)
 
     d = sub.add_parser("plot-data", help="plot max velocity against max force coloured by label (paper Fig. 13)",

@@ -65,6 +65,10 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
     g = p.add_argument_group("problem", "a problem file, and any of its values overridden; a position, velocity or "
                              "terminal value is one number for every axis or one per axis (0.3,0)")
     g.add_argument("--problem", default=DEFAULT_PROBLEM, metavar="FILE", help="problem TOML file")
+    g.add_argument("--robot", dest="set_robot", metavar="NAME",
+                   help=f"the arm that runs the plan: its simulation, and its joint velocity and torque limits held "
+                   f"(--joint-limit-scale 1 unless given) (`judgeopt robots` lists them; {Path(DEFAULT_PROBLEM).name}: "
+                   f"{default.robot})")
     for section, names in SECTIONS.items():
         for name in names:
             shown = getattr(default, name)
@@ -245,7 +249,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if args.simulate:
         from judgeopt.tasks import get_task
 
-        sim = get_task(problem.task).simulator()
+        task = get_task(problem.task)
+        sim = task.simulator(task.robot_settings(problem.robot))
     report = session.solve(planners, simulator=sim, world=told, warm_start=args.warm_start,
                            ranges=ranges_given(args, problem), range_case=args.range_case, suggest=args.suggest)
     results, suggestions, unlikely = report.results, report.suggestions, report.unlikely

@@ -66,6 +66,15 @@ class Dataset:
     randomized: np.ndarray | None = None
     randomized_names: tuple[str, ...] = ()
 
+    @property
+    def robot(self) -> str:
+        """The arm the demonstrations ran on (its settings' scene.robot; files made before arms were
+        chosen, and tasks without one: the default, the UR5)."""
+        from judgeopt.robots import DEFAULT_ROBOT
+
+        scene = (self.meta.get("settings") or {}).get("scene") or {}
+        return scene.get("robot", DEFAULT_ROBOT)
+
     def __post_init__(self) -> None:
         n = len(self.labels)
         self.index = np.arange(n) if self.index is None else np.asarray(self.index)

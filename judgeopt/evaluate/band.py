@@ -27,6 +27,7 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
+from judgeopt.robots import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -105,7 +106,7 @@ def band_chunk(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], firs
     from judgeopt.parallel import worker_cache
 
     torch.set_num_threads(1)
-    sim = simulator(problem.task)
+    sim = simulator(problem.task, problem.robot)
     base = planners(problem, methods, None, models_dir)
     members = []
     if ensemble:
@@ -161,7 +162,8 @@ def rescore(rows: list[dict], calibrators: dict, evidence: dict, env_names: Sequ
     calibrate_rows(rows, calibrators, env_names)
     for r in rows:
         if r.get("method"):
-            annotate(r, evidence, r["method"], r.get("judge_sha256"), {**r.get("limits", {}), **r["environment"]}, risk)
+            annotate(r, evidence, r["method"], r.get("judge_sha256"),
+                     {**r.get("limits", {}), **r["environment"], "robot": r.get("robot", DEFAULT_ROBOT)}, risk)
     reassess(rows)
 
 

@@ -15,13 +15,15 @@ from joblib import Parallel, delayed
 
 from judgeopt.parallel import backend, stop_workers_on_sigterm, worker_cache
 from judgeopt.planners.problem import Problem
+from judgeopt.robots import DEFAULT_ROBOT
 
 
-def simulator(task: str):
-    """This process's simulator of the task's shipped scene."""
+def simulator(task: str, robot: str = DEFAULT_ROBOT):
+    """This process's simulator of the task's shipped scene, with the arm `robot`."""
     from judgeopt.tasks import get_task
 
-    return worker_cache(f"sim:{task}", get_task(task).simulator)
+    t = get_task(task)
+    return worker_cache(f"sim:{task}:{robot}", lambda: t.simulator(t.robot_settings(robot)))
 
 
 def planners(problem: Problem, methods: tuple[str, ...], judge: str | None = None, models_dir: str = "models",
@@ -46,7 +48,7 @@ def _random_rows(problem: Problem, envs: np.ndarray, first: int, seed: int, simu
         plan = task.plan(task.random_command(np.random.default_rng([seed, first + i]), env))
         r = PlanResult("random", env, plan, None, "sampled", 0.0, constraint_residuals(problem, plan, env))
         if simulate:
-            r.simulated_success = bool(simulator(problem.task).simulate(plan, problem.world_env(env)).success)
+            r.simulated_success = bool(simulator(problem.task, problem.robot).simulate(plan, problem.world_env(env)).success)
         rows.append({**r.to_json(), "env_index": first + i})
     return rows
 
@@ -60,7 +62,7 @@ def plan_chunk(problem: Problem, methods: tuple[str, ...], models_dir: str, envs
     if methods == ("random",):
         return _random_rows(problem, envs, first, seed, simulate)
     loaded = planners(problem, methods, judge, models_dir)
-    sim = simulator(problem.task) if simulate else None
+    sim = simulator(problem.task, problem.robot) if simulate else None
     rows = []
     for i, e in enumerate(envs):
         for r in loaded.solve(dict(zip(problem.env_names, map(float, e))), simulator=sim):

@@ -129,7 +129,7 @@ def edge_chunk(problem: Problem, cfg: EdgeConfig, methods: tuple[str, ...], envs
     from judgeopt.evaluate.batch import planners, simulator
 
     torch.set_num_threads(1)
-    sim = simulator(problem.task)
+    sim = simulator(problem.task, problem.robot)
     base = planners(problem, methods, None, models_dir)
     rows = []
     for i, e in enumerate(envs):

@@ -125,7 +125,7 @@ def _simulator_rows(problem: Problem, method: str, envs: np.ndarray, first: int,
     rows = []
     for i, e in enumerate(envs):
         env = dict(zip(problem.env_names, map(float, e)))
-        found = (nojudge_rows(problem, env, simulator(problem.task), NOJUDGE_PLANS, seed) if method == "nojudge"
-                 else [search(problem, env, simulator(problem.task), seed)])
+        found = (nojudge_rows(problem, env, simulator(problem.task, problem.robot), NOJUDGE_PLANS, seed) if method == "nojudge"
+                 else [search(problem, env, simulator(problem.task, problem.robot), seed)])
         rows += [{**r, "env_index": first + i} for r in found]
     return rows

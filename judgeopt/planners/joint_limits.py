@@ -49,7 +49,9 @@ def joint_kinematics(arm: ArmModel, position: float, start: np.ndarray | None = 
     J = pin.computeFrameJacobian(model, data, q, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)
     twist = np.concatenate([arm.axes[0], np.zeros(3)])
     wrench = np.concatenate([arm.force_axis, np.zeros(3)])
-    rate = np.linalg.solve(J, twist)
+    # an arm with more joints than the tool's 6 coordinates: the least-norm joint velocities (the controller's
+    # J+ xdd, its null space held still)
+    rate = np.linalg.solve(J, twist) if J.shape[0] == J.shape[1] else np.linalg.pinv(J) @ twist
     gravity = pin.computeGeneralizedGravity(model, data, q).copy()
     return q, rate, gravity, J.T @ wrench
 
@@ -176,7 +178,7 @@ def joint_map(problem: Any) -> JointMap:
         raise ProblemError(f"joint_limit_scale: task {task.name!r} has {len(task.channels_of('position'))} position "
                            "axes; the arm's joint limits are held for one-axis tasks only")
     lo, hi, q0 = (float(problem.vec(k)[0]) for k in ("q_min", "q_max", "q0"))
-    key = (task.name, lo, hi, q0)
+    key = (task.name, getattr(problem, "robot", None), lo, hi, q0)
     if key not in _CACHE:
         arm = task.arm_model(problem)
         if arm is None:

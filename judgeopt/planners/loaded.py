@@ -25,6 +25,7 @@ from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_
                                     to_build, unknown, with_uses)
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
 from judgeopt.planners.result import PlanResult, assess, infeasible_result
+from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.trajectory import PlanError
 from judgeopt.verdict.risk import RISK, annotate as annotate_risk
 
@@ -335,7 +336,10 @@ class Planners:
         outside = outside_data(self.judge_meta, env, limits)
         if outside:
             r.info["outside_judge_data"] = outside
-        annotate_risk(r.info, self.evidence, r.method, self.judge_meta["weights_sha256"], {**limits, **env}, self.risk)
+        if self.problem.robot != DEFAULT_ROBOT:  # results of the default arm read as before
+            r.info["robot"] = self.problem.robot
+        annotate_risk(r.info, self.evidence, r.method, self.judge_meta["weights_sha256"],
+                      {**limits, **env, "robot": self.problem.robot}, self.risk)
         return assess(r)
 
 

@@ -33,6 +33,8 @@ from judgeopt.files import PACKAGE, resolve
 from judgeopt.planners.constraints import ConstraintError, Constraints, describe
 from judgeopt.planners.constraints import validate as validate_constraints
 from judgeopt.formats.frame import FrameError, TaskFrame, task_frame
+from judgeopt.robots import DEFAULT_ROBOT, get_robot
+from judgeopt.robots.spec import RobotError
 from judgeopt.tasks import DEFAULT_TASK, TaskError, get_task
 from judgeopt.trajectory import DEFAULT_DT, DEFAULT_HORIZON
 
@@ -159,6 +161,9 @@ class Motion:
     (`Task.default_q_end`)."""
 
     task: str = DEFAULT_TASK
+    # the arm that runs the plan (judgeopt.robots): its simulation, and its joint limits held (joint_limit_scale 1
+    # unless set) for any arm but the default, whose shipped plans were made without them
+    robot: str = DEFAULT_ROBOT
     steps: int = DEFAULT_HORIZON
     dt: float = DEFAULT_DT
     q0: float | list[float] = -0.03
@@ -235,7 +240,7 @@ PARTS: dict[str, type] = {"motion": Motion, "solver": SolverOptions, "generator"
 #: field name -> the part holding it
 PART_OF: dict[str, str] = {f.name: part for part, cls in PARTS.items() for f in dataclasses.fields(cls)}
 #: every field by name, in the order of the flat records (Problem.to_dict) written before the split
-FIELDS: tuple[str, ...] = ("name", "description", "task", "steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min",
+FIELDS: tuple[str, ...] = ("name", "description", "task", "robot", "steps", "dt", "q0", "qdot0", "q_min", "q_max", "qdot_min",
                            "qdot_max", "f_min", "f_max", "q_end", "qdot_end", "end_margin", "environment", "world", "P", "Q", "R",
                            "acc_weight", "force_rate_weight", "objective", "p_target", "p_min", "max_iter", "tol",
                            "replan_period", "replan_trigger", "judge", "ensemble", "pessimism", "trust_region",
@@ -286,6 +291,8 @@ class Problem:
         if self.objective == "min-time":  # as the command line spells it
             object.__setattr__(self, "solver", dataclasses.replace(self.solver, objective="min_time"))
         self.validate()
+        if self.robot != DEFAULT_ROBOT and self.joint_limit_scale is None:  # planned for that arm: its limits held
+            object.__setattr__(self, "constraints", dataclasses.replace(self.constraints, joint_limit_scale=1.0))
         if not self.judge:
             object.__setattr__(self, "models", dataclasses.replace(self.models, judge=get_task(self.task).default_judge))
 
@@ -295,6 +302,10 @@ class Problem:
         try:
             task = get_task(self.task)
         except TaskError as exc:
+            raise ProblemError(f"{exc}{where}") from None
+        try:
+            get_robot(self.robot)
+        except RobotError as exc:
             raise ProblemError(f"{exc}{where}") from None
         for name in ("dt", "P", "Q", "R", "acc_weight", "force_rate_weight", "tol"):
             v = getattr(self, name)
@@ -597,6 +608,8 @@ class Problem:
             del d["generator_model"]
         if not self.world:  # records of problems without one read as before
             del d["world"]
+        if self.robot == DEFAULT_ROBOT:  # records of problems made before arms were chosen read as before
+            del d["robot"]
         if not np.any(self.vec("end_margin")):  # records of problems without one read as before
             del d["end_margin"]
         kept = describe(self.constraints)
@@ -689,10 +702,10 @@ def _read_toml(path: Path, seen: tuple[Path, ...] = ()) -> dict[str, Any]:
             if not isinstance(value, dict):
                 raise ProblemError(f"{path}: [frame] must be a table")
             flat["frame"] = {**flat.get("frame", {}), **value}  # a derived file changes only the keys it gives
-        elif key in ("name", "description", "task"):
+        elif key in ("name", "description", "task", "robot"):
             flat[key] = value
         else:
-            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, base, environment, world, "
+            raise ProblemError(f"{path}: unknown key {key!r}; allowed: name, description, task, robot, base, environment, world, "
                                f"frame, {', '.join(f'[{s}]' for s in SECTIONS)}")
     if "environment" in raw and "world" in flat:  # planned for here: the base's world value gives way
         mine = raw.get("world", {})

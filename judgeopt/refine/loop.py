@@ -121,7 +121,7 @@ def _plan_chunk(problem: Problem, methods: tuple[str, ...], judge: str, generato
     label."""
     from judgeopt.evaluate.batch import simulator
 
-    sim = simulator(problem.task)
+    sim = simulator(problem.task, problem.robot)
     rows = []
     for i, env, lim, con, r in _solved(problem, methods, judge, generator, envs, limits, constraints):
         out = sim.simulate(r.plan, problem.world_env(env))

@@ -1,4 +1,4 @@
-"""The simulated UR5 with its spatula, shared by every task's scene: loading it into a PyBullet
+"""The simulated arm (judgeopt.robots) with its spatula, shared by every task's scene: loading it into a PyBullet
 client, and the plant side of the control loop (read the joints and the wrist sensor, apply the
 hybrid controller's torques, step the physics).
 """
@@ -14,23 +14,13 @@ import pinocchio as pin
 from judgeopt.sim.quiet import c_stdout_to_stderr, pb
 from judgeopt.sim.compiled import make_controller
 from judgeopt.sim.controller import ControllerConfig, TaskCommand, solve_ik
+from judgeopt.robots import DEFAULT_ROBOT, get_robot
+from judgeopt.robots.spec import RobotSpec
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 
-ARM_JOINTS = (
-    "shoulder_pan_joint",
-    "shoulder_lift_joint",
-    "elbow_joint",
-    "wrist_1_joint",
-    "wrist_2_joint",
-    "wrist_3_joint",
-)
 # PyBullet calls of the 1 kHz loop, bound once (ArmDriver.step)
 _get_joint_states, _set_joint_motors, _step_simulation = pb.getJointStates, pb.setJointMotorControlArray, pb.stepSimulation
 _TORQUE_CONTROL = pb.TORQUE_CONTROL
-
-#: an elbow-up, tool-down UR5 posture near the home pose; IK starts from it
-HOME_POSTURE = np.array([-0.816, -1.778, 2.418, -2.211, -1.571, -2.387])
-
 
 def connect(timestep: float, solver_iterations: int) -> int:
     """A PyBullet DIRECT client with gravity and a deterministic, fixed-step solver."""
@@ -43,8 +33,9 @@ def connect(timestep: float, solver_iterations: int) -> int:
 
 @dataclass
 class ArmBody:
-    """The arm in a client: its body id, URDF, joint and link indices by name."""
+    """The arm in a client: its config, body id, URDF, joint and link indices by name."""
 
+    spec: RobotSpec
     client: int
     robot: int
     urdf_path: Path
@@ -54,25 +45,26 @@ class ArmBody:
 
 
 def load_arm(client: int, spatula: SpatulaGeometry, wrist_inertia: str = "universal_robots",
-             inertia_from_file: bool = True, visual_shapes: bool = True) -> ArmBody:
+             inertia_from_file: bool = True, visual_shapes: bool = True, robot: str = DEFAULT_ROBOT) -> ArmBody:
     """Load the arm; nothing of it collides until a task gives its spatula links collision layers.
     `inertia_from_file`: PyBullet integrates the URDF's inertias (the ones the controller's
     model reads; docs/physics.md), not ones derived from the collision shapes."""
-    urdf_path = robot_urdf(spatula, wrist_inertia=wrist_inertia)
+    spec = get_robot(robot)
+    urdf_path = robot_urdf(spatula, wrist_inertia=wrist_inertia, robot=robot)
     flags = pb.URDF_USE_INERTIA_FROM_FILE if inertia_from_file else 0
     if not visual_shapes:  # only a camera sees them; reading the arm's meshes is most of a scene's build (0.45 s)
         flags |= pb.URDF_IGNORE_VISUAL_SHAPES
     with c_stdout_to_stderr():  # URDF warnings about the massless root link
-        robot = pb.loadURDF(str(urdf_path), useFixedBase=True, flags=flags, physicsClientId=client)
-    n = pb.getNumJoints(robot, physicsClientId=client)
-    names = {pb.getJointInfo(robot, j, physicsClientId=client)[1].decode(): j for j in range(n)}
-    links = {pb.getJointInfo(robot, j, physicsClientId=client)[12].decode(): j for j in names.values()}
-    body = ArmBody(client, robot, urdf_path, [names[j] for j in ARM_JOINTS], names["ft_sensor_joint"], links)
+        body_id = pb.loadURDF(str(urdf_path), useFixedBase=True, flags=flags, physicsClientId=client)
+    n = pb.getNumJoints(body_id, physicsClientId=client)
+    names = {pb.getJointInfo(body_id, j, physicsClientId=client)[1].decode(): j for j in range(n)}
+    links = {pb.getJointInfo(body_id, j, physicsClientId=client)[12].decode(): j for j in names.values()}
+    body = ArmBody(spec, client, body_id, urdf_path, [names[j] for j in spec.joints], names["ft_sensor_joint"], links)
     for j in range(-1, n):
-        pb.setCollisionFilterGroupMask(robot, j, 0, 0, physicsClientId=client)
+        pb.setCollisionFilterGroupMask(body_id, j, 0, 0, physicsClientId=client)
     for j in body.arm_joints:  # torque control: switch off the default velocity motors
-        pb.setJointMotorControl2(robot, j, pb.VELOCITY_CONTROL, force=0, physicsClientId=client)
-    pb.enableJointForceTorqueSensor(robot, body.ft_joint, True, physicsClientId=client)
+        pb.setJointMotorControl2(body_id, j, pb.VELOCITY_CONTROL, force=0, physicsClientId=client)
+    pb.enableJointForceTorqueSensor(body_id, body.ft_joint, True, physicsClientId=client)
     return body
 
 
@@ -98,9 +90,11 @@ class ArmDriver:
         #: frame to the reading (bias and noise; the tasks' perturbations set it)
         self.sensor_model = None
 
-    def joints_for(self, target: pin.SE3, start: np.ndarray = HOME_POSTURE) -> np.ndarray:
-        """Joint angles placing the TCP at `target` (wrapped to [-pi, pi))."""
-        q = solve_ik(self.controller.model, self.controller.tcp, target, start)
+    def joints_for(self, target: pin.SE3, start: np.ndarray | None = None) -> np.ndarray:
+        """Joint angles placing the TCP at `target` (wrapped to [-pi, pi)), from `start` (None: the
+        arm's home posture, which picks the IK's branch)."""
+        q = solve_ik(self.controller.model, self.controller.tcp, target,
+                     np.array(self.body.spec.home) if start is None else start)
         return (q + np.pi) % (2 * np.pi) - np.pi
 
     def reset(self, q0: np.ndarray) -> None:

@@ -37,7 +37,7 @@ _IN = (("q", "nv"), ("sensor_joint", 1), ("force", 3), ("has_force", 1), ("force
        ("position_cmd", 3), ("velocity_cmd", 6), ("rotation_cmd", 9), ("selection", 6), ("sensor_rotation", 9),
        ("q_prev", "nv"), ("qd_est", "nv"), ("f_est", 3),
        ("kp", 6), ("kv", 6), ("kf", 6), ("tau_max", "nv"), ("alpha", 1), ("gain", 1), ("one_minus_alpha", 1),
-       ("payload_weight", 1))
+       ("payload_weight", 1), ("q_rest", "nv"), ("null_gains", 2))
 _OUT = (("tau", "nv"), ("qd_new", "nv"), ("f_new", 3), ("position", 3), ("velocity", 6), ("rotation", 9))
 _SYMBOL = "judgeopt_control_step"
 _first = operator.itemgetter(0)
@@ -86,13 +86,20 @@ def step_functions(model_data: dict) -> tuple[cs.Function, cs.Function]:
             lam_inv_z = cs.mtimes(J, _cholesky_solve(chain.mass_matrix(model_data, kin), J[2, :].T))
             xdd = cs.vertcat(xdd[:2], xdd[2] + (1.0 - S[2]) * g["kf"][2] * (f_new[2] - fz), xdd[3:])
             xdd = xdd - lam_inv_z * fz
-        tau = chain.rnea(model_data, kin, v, cs.solve(J, xdd))
+        tau = chain.rnea(model_data, kin, v, cs.solve(J, xdd) if nv == 6 else _redundant(J, xdd, g, v))
         tau = cs.fmin(cs.fmax(tau, -g["tau_max"]), g["tau_max"])
         name = "step_force" if force_terms else "step_free"
         # cse: the mass matrix and RNEA share the bodies' world inertias (15 % fewer operations)
         fns.append(cs.Function(name, [x], [cs.vertcat(tau, v, f_new, p, velocity, cs.reshape(R.T, 9, 1))],
                                {"cse": True}))
     return fns[0], fns[1]
+
+
+def _redundant(J: cs.SX, xdd: cs.SX, g: dict, v: cs.SX) -> cs.SX:
+    """HybridController._redundant: J+ xdd plus the null space's posture regulation."""
+    Jt_inv = cs.mtimes(J.T, cs.inv(cs.mtimes(J, J.T)))
+    posture = -g["null_gains"][0] * (g["q"] - g["q_rest"]) - g["null_gains"][1] * v
+    return cs.mtimes(Jt_inv, xdd) + posture - cs.mtimes(Jt_inv, cs.mtimes(J, posture))
 
 
 def _cholesky_solve(M: cs.SX, b: cs.SX) -> cs.SX:
@@ -185,6 +192,7 @@ class CompiledController(HybridController):
         self._ptr = io.ctypes.data
         v = {k: io[sl] for k, sl in {**ins, **outs}.items()}
         v["alpha"][0], v["gain"][0], v["one_minus_alpha"][0] = self._alpha, self._gain, self._one_minus_alpha
+        v["null_gains"][:] = self.config.null_kp, self.config.null_kv
         self._rot, self._sensor_R = v["rotation_cmd"].reshape(3, 3), v["sensor_rotation"].reshape(3, 3)
         self._tau = v["tau"]
         self._rot_src: np.ndarray | None = None  # the read-only rotation last copied in (IDENTITY), else None
@@ -206,6 +214,7 @@ class CompiledController(HybridController):
             self._pending_q = np.array(q, dtype=float)
             return
         v["q_prev"][:] = q
+        v["q_rest"][:] = q
         for k in ("qd_est", "f_est", "position", "velocity"):
             v[k][:] = 0.0
         v["rotation"][:] = IDENTITY.ravel()

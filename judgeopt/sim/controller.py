@@ -46,7 +46,12 @@ class ControllerConfig:
     selection: tuple[float, ...] = (1.0, 1.0, 0.1, 1.0, 1.0, 1.0)
     cutoff_hz: float = 10.0
     dt: float = 1e-3
-    torque_limit: tuple[float, ...] = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)  # UR5 joint limits
+    #: N m per joint; None: the arm's effort limits (its URDF, corrected: judgeopt.robots)
+    torque_limit: tuple[float, ...] | None = None
+    #: an arm with more joints than the task's 6: its null-space motion held near the posture it was
+    #: reset to (1/s^2, 1/s), which changes nothing at the tool
+    null_kp: float = 25.0
+    null_kv: float = 10.0
     #: "compiled": the step in C, one native call (judgeopt/sim/compiled.py; the Python step where it
     #: cannot be built); "python": HybridController.step, the reference
     step: str = "compiled"
@@ -75,7 +80,7 @@ class HybridController:
         self.kp, self.kv = np.array(cfg.kp), np.array(cfg.kv)
         self.kf = np.array(cfg.kf_lambda_inv)
         self.S = np.array(cfg.selection)
-        self.tau_max = np.array(cfg.torque_limit)
+        self.tau_max = np.array(self.model.effortLimit if cfg.torque_limit is None else cfg.torque_limit, dtype=float)
         self._tau_min = -self.tau_max
         self.payload_weight = payload_weight  # N, what the sensor carries at rest
         self._err = np.zeros(6)
@@ -87,6 +92,7 @@ class HybridController:
 
     def reset(self, q: np.ndarray) -> None:
         self.q_prev = np.array(q, dtype=float)
+        self.q_rest = self.q_prev.copy()
         self.qd_est = np.zeros(self.model.nv)
         self.f_est = np.zeros(3)
         self.position = np.zeros(3)
@@ -130,8 +136,16 @@ class HybridController:
         if S[2] < 1.0:
             self._add_force_terms(xdd, q, J, S, cmd.force_z)
         # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
-        tau = _rnea(model, data, q, v, _dgesv()(J, xdd)[2])
+        qdd = _dgesv()(J, xdd)[2] if J.shape[1] == 6 else self._redundant(J, xdd, q, v)
+        tau = _rnea(model, data, q, v, qdd)
         return _minimum(_maximum(tau, self._tau_min), self.tau_max)
+
+    def _redundant(self, J: np.ndarray, xdd: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """Joint accelerations of an arm with more than 6 joints: J+ xdd (the least-norm ones that
+        give xdd), plus the null space's posture regulation, which moves no tool coordinate."""
+        Jt_inv = J.T @ np.linalg.inv(J @ J.T)
+        posture = -self.config.null_kp * (q - self.q_rest) - self.config.null_kv * v
+        return Jt_inv @ xdd + posture - Jt_inv @ (J @ posture)
 
     def _add_force_terms(self, xdd: np.ndarray, q: np.ndarray, J: np.ndarray, S: np.ndarray, force_z: float) -> None:
         """Force control in z, in place: the wrench on the environment is F_cmd = (0, 0, -f_z);

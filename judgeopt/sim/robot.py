@@ -1,4 +1,4 @@
-"""The UR5 + force sensor + spatula description, written once as one URDF.
+"""An arm (judgeopt.robots) + force sensor + spatula description, written once as one URDF.
 
 PyBullet and Pinocchio both load the file this module writes, so the dynamics the
 controller computes (M, Lambda) are those of the robot the simulator integrates.
@@ -10,6 +10,7 @@ import hashlib
 import importlib.metadata
 import math
 import re
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,27 +18,18 @@ import numpy as np
 
 from judgeopt.errors import Missing
 from judgeopt.files import atomic_write, cache_dir as default_cache_dir, make_cache_dir
+from judgeopt.robots import DEFAULT_ROBOT, get_robot
+from judgeopt.robots.spec import Correction, RobotSpec
 
 
-#: Wrist inertia tensors (kg m^2, diagonal in the link frame) replacing example-robot-data's.
-#: Its UR5 file computes each wrist's cylinder inertia with a radius of 0.6 m instead of
-#: 0.06 m (izz = m r^2 / 2 = 0.219 kg m^2 for a 1.2 kg wrist, about 100x too large; wrist 3
-#: likewise). These are Universal Robots' own figures for the UR5, from
-#: Universal_Robots_ROS2_Description, config/ur5/physical_parameters.yaml (same masses,
-#: cylinders of radius 0.06 m for wrists 1 and 2 and 0.0375 m for wrist 3).
-UR5_WRIST_INERTIA = {
-    "wrist_1_link": (0.0020138896, 0.0020138896, 0.0021942),
-    "wrist_2_link": (0.0018310396, 0.0018310396, 0.0021942),
-    "wrist_3_link": (8.0624758e-05, 8.0624758e-05, 1.3211719e-04),
-}
-
-#: where the arm's link inertias come from: "universal_robots" (the wrists corrected as above)
-#: or "example_robot_data" (the file as shipped, before 2026-11-22)
+#: where the arm's link inertias come from: "universal_robots" (the maker's figures where the file is wrong:
+#: RobotSpec.inertias, for the UR5 its wrists, from Universal Robots) or "example_robot_data" (the file as
+#: shipped: the scene of every dataset made before 2026-11-22)
 WRIST_INERTIA_SOURCES = ("universal_robots", "example_robot_data")
 
 
 class RobotDescriptionError(Missing, RuntimeError):
-    """The UR5 description could not be found in the installed example-robot-data."""
+    """An arm's description could not be found in the installed example-robot-data."""
 
 
 @dataclass(frozen=True)
@@ -115,7 +107,7 @@ def example_robot_data_prefix() -> Path:
     raise RobotDescriptionError("example-robot-data is installed but holds no ur5_robot.urdf")
 
 
-def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path) -> str:
+def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path, flange: str) -> str:
     a = math.radians(g.handle_angle_deg)
     t = math.radians(g.blade_tilt_deg)
     # handle: from the sensor face (0,0,0) down and forward to the blade's back edge
@@ -161,7 +153,7 @@ def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path) -> str:
     <collision><origin xyz="{h_mid[0]:.6f} {h_mid[1]:.6f} {h_mid[2]:.6f}" rpy="{-a:.6f} 0 0"/>
       <geometry><box size="0.02 {g.handle_length} 0.006"/></geometry></collision>
   </link>
-  <joint name="ft_sensor_joint" type="fixed"><parent link="tool0"/><child link="spatula"/>
+  <joint name="ft_sensor_joint" type="fixed"><parent link="{flange}"/><child link="spatula"/>
     <origin xyz="0 0 {g.sensor_length}" rpy="{math.pi:.9f} 0 0"/></joint>
   {blade_link("blade_top", "0.75 0.75 0.78 1")}
   {blade_link("blade_bottom", "0.75 0.75 0.78 1")}
@@ -172,39 +164,117 @@ def _spatula_xml(g: SpatulaGeometry, blade_mesh: Path) -> str:
 """
 
 
-def correct_wrist_inertia(urdf: str) -> str:
-    """The UR5 URDF text with the wrist links' inertia tensors replaced by UR5_WRIST_INERTIA."""
-    for link, (ixx, iyy, izz) in UR5_WRIST_INERTIA.items():
+#: the inertial of a frame-only link: PyBullet gives a link without one a mass of 1 kg, Pinocchio none
+MASSLESS = ('<inertial><mass value="0"/><origin xyz="0 0 0"/>'
+            '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>')
+
+
+def correct_inertias(urdf: str, inertias: dict[str, Correction]) -> str:
+    """The URDF text with these links' inertia tensors replaced (diagonal, in the link's inertial frame)."""
+    for link, fix in inertias.items():
+        ixx, iyy, izz = fix.value
         pattern = re.compile(rf'(<link name="{link}">.*?<inertial>.*?)<inertia [^>]*/>', re.S)
         new = f'<inertia ixx="{ixx:.10g}" ixy="0.0" ixz="0.0" iyy="{iyy:.10g}" iyz="0.0" izz="{izz:.10g}"/>'
         urdf, n = pattern.subn(lambda m: m.group(1) + new, urdf, count=1)
         if n != 1:
-            raise RobotDescriptionError(f"the installed ur5_robot.urdf has no inertia for {link}")
+            raise RobotDescriptionError(f"the installed description has no inertia for {link}")
     return urdf
 
 
+def _rewrite(urdf: str, spec: RobotSpec) -> str:
+    """What an arm other than the plain UR5 needs, on the parsed file: its limits corrected, every
+    movable joint that is not an arm joint (fingers, a gripper) fixed, the links `spec.remove`
+    names dropped with what hangs on them (a hand the spatula replaces), continuous arm joints
+    made revolute over +-2 pi (PyBullet and Pinocchio then agree on one angle per joint), and the
+    base placed in the world by a fixed joint from a new root link. Unchanged text where none applies."""
+    root = ET.fromstring(urdf)
+    joints = {j.get("name"): j for j in root.findall("joint")}
+    missing = [j for j in (*spec.joints, *spec.velocity_limits, *spec.effort_limits) if j not in joints]
+    if missing:
+        raise RobotDescriptionError(f"robot {spec.name!r}: {spec.description} has no joint {', '.join(missing)}")
+    changed = False
+    drop = set(spec.remove)
+    while True:  # everything hanging on a dropped link goes too
+        more = {j.find("child").get("link") for j in joints.values() if j.find("parent").get("link") in drop} - drop
+        if not more:
+            break
+        drop |= more
+    for name, j in joints.items():
+        if j.find("child").get("link") in drop:
+            root.remove(j)
+            changed = True
+    for link in root.findall("link"):
+        if link.get("name") in drop:
+            root.remove(link)
+    for name, j in joints.items():
+        if j.find("child").get("link") in drop:
+            continue
+        kind = j.get("type")
+        if kind in ("revolute", "continuous", "prismatic") and name not in spec.joints:
+            j.set("type", "fixed")
+            changed = True
+        elif kind == "continuous":
+            j.set("type", "revolute")
+            limit = j.find("limit")
+            limit.set("lower", f"{-2 * math.pi:.9f}")
+            limit.set("upper", f"{2 * math.pi:.9f}")
+            changed = True
+        for table, attribute in ((spec.velocity_limits, "velocity"), (spec.effort_limits, "effort")):
+            if name in table:
+                j.find("limit").set(attribute, f"{float(table[name].value):g}")
+                changed = True
+    children = {j.find("child").get("link") for j in root.findall("joint")}
+    for link in root.findall("link"):  # a frame-only link: PyBullet would give it 1 kg (the fixed root moves nothing)
+        if link.find("inertial") is None and link.get("name") in children:
+            link.append(ET.fromstring(MASSLESS))
+            changed = True
+    if spec.placed:
+        base = next(link.get("name") for link in root.findall("link") if link.get("name") not in children)
+        world = ET.fromstring(f'<link name="judgeopt_world">{MASSLESS}</link>')
+        mount = ET.Element("joint", name="judgeopt_base_joint", type="fixed")
+        ET.SubElement(mount, "parent", link="judgeopt_world")
+        ET.SubElement(mount, "child", link=base)
+        x, y, z = spec.base_xyz
+        ET.SubElement(mount, "origin", xyz=f"{x:g} {y:g} {z:g}", rpy=f"0 0 {spec.base_yaw:g}")
+        root.insert(0, mount)
+        root.insert(0, world)
+        changed = True
+    return ET.tostring(root, encoding="unicode") if changed else urdf
+
+
 def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None = None,
-               wrist_inertia: str = "universal_robots") -> Path:
-    """Write (once, atomically) the UR5 + spatula URDF and return its path.
+               wrist_inertia: str = "universal_robots", robot: str = DEFAULT_ROBOT) -> Path:
+    """Write (once, atomically) the arm + spatula URDF and return its path.
 
     Mesh paths are rewritten from `package://` to absolute paths so PyBullet finds them.
     The file name carries a hash of its content: a changed geometry gives a new file.
     """
     if wrist_inertia not in WRIST_INERTIA_SOURCES:
         raise ValueError(f"wrist_inertia = {wrist_inertia!r}; choose one of {WRIST_INERTIA_SOURCES}")
+    spec = get_robot(robot)
     g = geometry or SpatulaGeometry()
     share = example_robot_data_prefix()
-    src = (share / "example-robot-data/robots/ur_description/urdf/ur5_robot.urdf").read_text()
-    src = src.replace("package://", str(share) + "/")
+    path = share / "example-robot-data/robots" / spec.description
+    if not path.is_file():
+        raise RobotDescriptionError(f"robot {spec.name!r}: example-robot-data holds no {spec.description} "
+                                    "(pip install -U example-robot-data)")
+    src = path.read_text().replace("package://", str(share) + "/")
     if wrist_inertia == "universal_robots":
-        src = correct_wrist_inertia(src)
+        src = correct_inertias(src, spec.inertias)
+    src = _rewrite(src, spec)
     cache = make_cache_dir(cache_dir or default_cache_dir())
     verts = blade_vertices(g)
     mesh = cache / f"blade_{hashlib.sha1(verts.tobytes()).hexdigest()[:12]}.obj"
     if not mesh.exists():
         _write_obj(mesh, verts)
-    text = src.replace("</robot>", _spatula_xml(g, mesh) + "\n</robot>")
-    out = cache / f"ur5_spatula_{hashlib.sha1(text.encode()).hexdigest()[:12]}.urdf"
+    flange, mount = spec.flange, ""
+    if any(spec.mount_xyz) or any(spec.mount_rpy):  # a frame whose +z leaves the flange
+        flange = "judgeopt_mount"
+        mount = (f'\n  <link name="{flange}">{MASSLESS}</link>\n  <joint name="judgeopt_mount_joint" type="fixed"><parent link="{spec.flange}"/>'
+                 f'<child link="{flange}"/>\n    <origin xyz="{" ".join(f"{v:g}" for v in spec.mount_xyz)}" '
+                 f'rpy="{" ".join(f"{v:.9f}" for v in spec.mount_rpy)}"/></joint>')
+    text = src.replace("</robot>", mount + _spatula_xml(g, mesh, flange) + "\n</robot>")
+    out = cache / f"{spec.name}_spatula_{hashlib.sha1(text.encode()).hexdigest()[:12]}.urdf"
     if not out.exists():
         atomic_write(out, text)
     return out

@@ -22,6 +22,8 @@ from typing import Any, Iterable, Mapping
 
 import numpy as np
 
+from judgeopt.robots import DEFAULT_ROBOT
+
 #: the default risk: at most this failure rate among plans called likely, as an upper confidence bound
 RISK = 0.02
 #: the default confidence of the bounds
@@ -68,6 +70,8 @@ class Evidence:
     plans: int = 0
     ranges: dict[str, list[float]] = field(default_factory=dict)  # each limit's and variable's [lo, hi] in the plans
     sources: list[str] = field(default_factory=list)  # the evaluation folders it was counted from
+    #: the arms the plans were replayed on (evidence stored before arms were chosen: the default's)
+    robots: list[str] = field(default_factory=lambda: [DEFAULT_ROBOT])
 
     @property
     def raise_floor(self) -> float:
@@ -76,7 +80,8 @@ class Evidence:
     def outside(self, values: Mapping[str, Any]) -> list[str]:
         """The limits and variables (of `values`) beyond the ranges the evidence was drawn over, as
         `f_max 22.5 (11-15.5)`: the risk it states was measured inside them only."""
-        out = []
+        robot = values.get("robot", DEFAULT_ROBOT)
+        out = [] if robot in self.robots else [f"robot {robot} ({', '.join(self.robots)})"]
         for k, (lo, hi) in self.ranges.items():
             v = values.get(k)
             tol = 1e-9 + RANGE_MARGIN * (hi - lo)
@@ -168,5 +173,6 @@ def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDEN
         out[evidence_key(method, sha)] = Evidence(
             method, sha, confidence, table,
             {"n": int(raised.sum()), "successes": int(y[raised].sum()), "floor": round(floor, 6)}, plans=len(rs),
-            ranges={k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))] for k in sorted(common)})
+            ranges={k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))] for k in sorted(common)},
+            robots=sorted({r.get("robot", DEFAULT_ROBOT) for r in rs}))
     return out

@@ -41,6 +41,7 @@ TABLE: dict[str, ExitCode] = {
     "judgeopt.files.OutputWriteError": ExitCode.BAD_INPUT,
     "judgeopt.judge.casadi_fn.CasadiBuildError": ExitCode.MISSING,
     "judgeopt.sim.robot.RobotDescriptionError": ExitCode.MISSING,
+    "judgeopt.robots.spec.RobotError": ExitCode.BAD_INPUT,
     "judgeopt.cbuild.CompileError": ExitCode.MISSING,
 }
 #: the bases each class kept, so that `except ValueError` (and the like) still catches it

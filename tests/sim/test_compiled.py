@@ -10,7 +10,8 @@ import pinocchio as pin
 import pytest
 
 from judgeopt.sim import chain, compiled
-from judgeopt.sim.arm import HOME_POSTURE
+from judgeopt.robots import get_robot
+HOME_POSTURE = np.array(get_robot("ur5").home)
 from judgeopt import cbuild
 from judgeopt.cbuild import CompileError
 from judgeopt.sim.compiled import CompiledController, make_controller
@@ -190,7 +191,6 @@ def test_ik_places_the_tcp_exactly_and_refuses_a_pose_out_of_reach(pair):
     the tool's reach (the best IK gets is 0.25 off) is refused in one line, not returned as a wrong pose."""
     import pinocchio as pin
 
-    from judgeopt.sim.arm import HOME_POSTURE
     from judgeopt.sim.controller import solve_ik
 
     ctl = pair[1]

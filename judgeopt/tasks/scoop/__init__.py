@@ -114,10 +114,13 @@ class ScoopTask(Task):
         return random_command(rng, float(env["y_obj"]), cfg).as_array()
 
     def arm_model(self, problem: Any = None) -> Any:
-        """The UR5 + spatula along the scooping line (tasks/scoop/arm_path.py; loads Pinocchio)."""
+        """The problem's arm (default the UR5) + spatula along the scooping line (tasks/scoop/arm_path.py;
+        loads Pinocchio)."""
+        from judgeopt.robots import DEFAULT_ROBOT
         from judgeopt.tasks.scoop.arm_path import scoop_arm
+        from judgeopt.tasks.scoop.scene import SceneConfig
 
-        return scoop_arm()
+        return scoop_arm(SceneConfig(robot=getattr(problem, "robot", DEFAULT_ROBOT)))
 
     def simulator(self, settings: ScoopSettings | None = None, render: bool = False) -> TaskSimulator:
         from judgeopt.tasks.scoop.world import WorldSimulator

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from judgeopt.sim.arm import ARM_JOINTS, HOME_POSTURE
+from judgeopt.robots import get_robot
 from judgeopt.sim.controller import solve_ik
 from judgeopt.sim.robot import robot_urdf
 from judgeopt.tasks.base import ArmModel
@@ -21,10 +21,12 @@ TCP_FRAME = "tcp"
 
 
 def scoop_arm(scene: SceneConfig | None = None) -> ArmModel:
-    """The UR5 + spatula of `scene` (default: the shipped one) as an ArmModel: the same URDF the
+    """The arm + spatula of `scene` (default: the shipped UR5) as an ArmModel: the same URDF the
     simulator and its controller load, the same IK and home posture the rollout starts from."""
     cfg = scene or SceneConfig()
-    model = pin.buildModelFromUrdf(str(robot_urdf(cfg.spatula, wrist_inertia=cfg.wrist_inertia)))
+    spec = get_robot(cfg.robot)
+    model = pin.buildModelFromUrdf(str(robot_urdf(cfg.spatula, wrist_inertia=cfg.wrist_inertia, robot=cfg.robot)))
+    home = np.array(spec.home)
     tcp = model.getFrameId(TCP_FRAME)
     z_contact = cfg.spatula.tcp_height_on_plate()
     x_home = cfg.x_home
@@ -34,11 +36,11 @@ def scoop_arm(scene: SceneConfig | None = None) -> ArmModel:
 
     def ik(position: np.ndarray, start: np.ndarray | None = None) -> np.ndarray:
         # as ArmDriver.joints_for: angles wrapped to [-pi, pi)
-        q = solve_ik(model, tcp, pose(position), HOME_POSTURE if start is None else start)
+        q = solve_ik(model, tcp, pose(position), home if start is None else start)
         return (q + np.pi) % (2 * np.pi) - np.pi
 
     joints = tuple(model.names[i] for i in range(1, model.njoints))
-    if joints != ARM_JOINTS:
-        raise RuntimeError(f"the robot's URDF has joints {joints}, not the arm's {ARM_JOINTS}")
+    if joints != spec.joints:
+        raise RuntimeError(f"the robot's URDF has joints {joints}, not the arm's {spec.joints}")
     return ArmModel(model=model, tool_frame=tcp, joints=joints, pose=pose, ik=ik,
                     axes=np.array([[0.0, 1.0, 0.0]]), force_axis=np.array([0.0, 0.0, -1.0]))

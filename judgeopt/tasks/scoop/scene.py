@@ -1,6 +1,7 @@
-"""The scooping scene in PyBullet: plate, pancake-like object and the UR5 with its spatula.
+"""The scooping scene in PyBullet: plate, pancake-like object and the arm (default the UR5) with its spatula.
 
-Frames (SI units throughout): the world frame is the UR5 base frame, z up; the plate's top
+Frames (SI units throughout): the world frame is the UR5's base frame (another arm's base stands where
+its RobotSpec.base_xyz places it), z up; the plate's top
 surface is the plane z = 0 and y is the scooping direction. The tool centre point (TCP) is the
 blade centre; the motion's home point is (x, y, z) = (0.3, 0, 0) in the paper's task
 coordinates, i.e. TCP at x = 0.3 m, y = 0, blade front edge on the plate. The planner's
@@ -13,6 +14,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.sim.quiet import pb
 from judgeopt.sim.arm import connect, load_arm
 from judgeopt.sim.robot import SpatulaGeometry
@@ -73,6 +75,7 @@ class SceneConfig:
     # of every dataset made before 2026-11-22 (with wrist_inertia = "example_robot_data").
     plant_inertia: str = "urdf"
     wrist_inertia: str = "universal_robots"  # judgeopt.sim.robot.WRIST_INERTIA_SOURCES
+    robot: str = DEFAULT_ROBOT  # the arm holding the spatula (judgeopt.robots; `judgeopt robots` lists them)
 
 
 def check_environment(y_obj: float, mu: float) -> None:
@@ -93,7 +96,7 @@ class Scene:
         if cfg.plant_inertia not in PLANT_INERTIA:
             raise ValueError(f"plant_inertia = {cfg.plant_inertia!r}; choose one of {PLANT_INERTIA}")
         self.arm = load_arm(c, cfg.spatula, cfg.wrist_inertia, inertia_from_file=cfg.plant_inertia == "urdf",
-                            visual_shapes=visual_shapes)
+                            visual_shapes=visual_shapes, robot=cfg.robot)
         self.robot, self.urdf_path = self.arm.robot, self.arm.urdf_path
         self.arm_joints, self.ft_joint = self.arm.arm_joints, self.arm.ft_joint
         links = self.arm.links

@@ -1,0 +1,85 @@
+"""Where an arm can hold the spatula on the scooping line: IK along the line, level, the blade on
+the plate and lifted, with each configuration's distance to the joints' position limits and the
+Jacobian's smallest singular value (how far from a singularity).
+
+Why: an arm config's base placement and home posture (judgeopt.robots) are only right if the whole
+line the plans use lies inside the workspace with margin; this measures it, for the tests, for
+`judgeopt robots` and for choosing a new arm's placement (scripts/place_arm.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+from judgeopt.robots import get_robot
+from judgeopt.sim.controller import solve_ik
+from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
+
+#: the scooping line's positions the rollout may command (tasks/scoop/rollout.Y_RANGE) and the lift after it
+LINE = (-0.25, 0.45)
+LIFT = 0.05
+
+
+@dataclass(frozen=True)
+class Reach:
+    """The arm along the line: per sampled position y [m], whether IK reached the pose (blade on the
+    plate and lifted by LIFT), the least distance of any joint to its position limits [rad] and the
+    smallest singular value of the TCP's Jacobian over both poses."""
+
+    robot: str
+    y: np.ndarray
+    reached: np.ndarray
+    margin: np.ndarray
+    sigma_min: np.ndarray
+
+    def segment(self) -> tuple[float, float] | None:
+        """The longest run of reached positions, as (first y, last y); None where none is reached."""
+        best, start = None, None
+        for i, ok in enumerate([*self.reached, False]):
+            if ok and start is None:
+                start = i
+            elif not ok and start is not None:
+                if best is None or i - start > best[1] - best[0]:
+                    best = (start, i)
+                start = None
+        return None if best is None else (float(self.y[best[0]]), float(self.y[best[1] - 1]))
+
+
+def arm_model(robot: str, spatula: SpatulaGeometry | None = None) -> tuple[pin.Model, int]:
+    """The arm + spatula's Pinocchio model (the URDF the simulator loads) and its TCP frame."""
+    model = pin.buildModelFromUrdf(str(robot_urdf(spatula, robot=robot)))
+    return model, model.getFrameId("tcp")
+
+
+def scoop_line(robot: str, x_home: float = 0.3, spatula: SpatulaGeometry | None = None, step: float = 0.025,
+               home: np.ndarray | None = None, model: tuple[pin.Model, int] | None = None) -> Reach:
+    """IK along the line from the arm's home posture outwards from y = 0, each pose started from its
+    neighbour's solution (the branch the rollout keeps), angles wrapped to [-pi, pi) as the driver does."""
+    g = spatula or SpatulaGeometry()
+    m, tcp = model or arm_model(robot, g)
+    data = m.createData()
+    z = g.tcp_height_on_plate()
+    y = np.round(np.arange(LINE[0], LINE[1] + step / 2, step), 9)
+    reached, margin, sigma = np.zeros(len(y), bool), np.full(len(y), -np.inf), np.zeros(len(y))
+    start = np.array(get_robot(robot).home if home is None else home, dtype=float)
+    centre = int(np.argmin(np.abs(y)))
+    for order in (range(centre, len(y)), range(centre, -1, -1)):
+        q_prev = start
+        for i in order:
+            try:
+                qs = [solve_ik(m, tcp, pin.SE3(np.eye(3), np.array([x_home, y[i], z + h])), q_prev) for h in (0.0, LIFT)]
+            except ValueError:
+                break
+            q_prev = qs[0]
+            wrapped = [(q + np.pi) % (2 * np.pi) - np.pi for q in qs]
+            margin[i] = min(float(np.min(np.minimum(q - m.lowerPositionLimit, m.upperPositionLimit - q)))
+                            for q in wrapped)
+            sigma[i] = min(float(np.linalg.svd(pin.computeFrameJacobian(m, data, q, tcp, pin.LOCAL_WORLD_ALIGNED),
+                                               compute_uv=False)[-1]) for q in wrapped)
+            reached[i] = margin[i] >= 0.0
+            if not reached[i]:
+                break
+    return Reach(robot, y, reached, margin, sigma)

@@ -1,0 +1,63 @@
+"""Choose an arm's base placement and home posture for the scoop (judgeopt.robots): over a grid of
+base positions (x behind the plate's home point, height above the plate), and IK solutions from
+random starts, the one whose whole scooping line (judgeopt.sim.placement.scoop_line) is reached
+with the largest distance to the joint limits and to a singularity. Prints the fields to put in
+the arm's file; the tests (tests/robots) check the chosen ones.
+
+    python scripts/place_arm.py panda
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pinocchio as pin
+
+from judgeopt.robots import get_robot
+from judgeopt.sim.controller import solve_ik
+from judgeopt.sim.placement import arm_model, scoop_line
+from judgeopt.sim.robot import SpatulaGeometry
+
+
+def score(reach) -> float:
+    """Every position reached first; then the joint-limit margin (rad, counted up to 1) plus ten
+    times the smallest singular value (counted up to 1): far from the limits and from a singularity."""
+    if not reach.reached.all():
+        return float(reach.reached.mean()) - 1.0
+    return min(float(reach.margin.min()), 1.0) + min(10 * float(reach.sigma_min.min()), 1.0)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("robot")
+    ap.add_argument("--seeds", type=int, default=12)
+    args = ap.parse_args()
+    spec = get_robot(args.robot)
+    base_model, tcp = arm_model(args.robot)
+    first = base_model.jointPlacements[1].copy()
+    g = SpatulaGeometry()
+    rng = np.random.default_rng(0)
+    lo, hi = base_model.lowerPositionLimit, base_model.upperPositionLimit
+    best = (-np.inf, None)
+    for bx in np.arange(-0.45, 0.151, 0.05):
+        for bz in np.arange(0.0, 0.501, 0.05):
+            base = pin.SE3(np.eye(3), np.array([bx, 0.0, bz]))
+            base_model.jointPlacements[1] = base * first
+            for k in range(args.seeds):
+                seed = np.array(spec.home) if k == 0 else rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi))
+                try:
+                    home = solve_ik(base_model, tcp, pin.SE3(np.eye(3), np.array([0.3, 0.0, g.tcp_height_on_plate()])), seed)
+                except ValueError:
+                    continue
+                home = (home + np.pi) % (2 * np.pi) - np.pi
+                s = score(scoop_line(args.robot, home=home, model=(base_model, tcp)))
+                if s > best[0]:
+                    best = (s, (round(float(bx), 3), round(float(bz), 3), home.round(3).tolist()))
+        print(f"base x {bx:+.2f}: best so far {best[0]:.3f} {best[1]}", flush=True)
+    s, (bx, bz, home) = best
+    print(f"\nscore {s:.3f}\nbase_xyz=({bx}, 0.0, {bz}),\nhome={tuple(home)},")
+
+
+if __name__ == "__main__":
+    main()

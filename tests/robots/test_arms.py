@@ -1,0 +1,144 @@
+"""Every registered arm: the plant PyBullet integrates is the model the controller computes with, the
+compiled control step is the Python step, the scooping line lies inside its workspace, and the
+figures its file gets wrong are the maker's once written."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from judgeopt.robots import DEFAULT_ROBOT, get_robot, robot_names
+from judgeopt.robots.spec import RobotError
+from judgeopt.sim.compiled import CompiledController
+from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand
+from judgeopt.sim.placement import scoop_line
+from judgeopt.sim.quiet import pb
+from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
+
+ARMS = robot_names()
+PAYLOAD = 1.27  # N
+
+
+def test_at_least_five_arms_besides_the_default():
+    assert DEFAULT_ROBOT == "ur5" and len(set(ARMS) - {DEFAULT_ROBOT}) >= 5
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_the_plant_is_the_model(robot):
+    """PyBullet's mass matrix (what it integrates) equals Pinocchio's (M and Lambda in the controller)
+    at random postures, for the URDF as written: hand removed, fingers fixed, base placed."""
+    from judgeopt.tasks.scoop.scene import Scene, SceneConfig
+
+    sc = Scene(SceneConfig(robot=robot), visual_shapes=False)
+    try:
+        model = pin.buildModelFromUrdf(str(sc.urdf_path))
+        assert tuple(model.names[1:]) == get_robot(robot).joints
+        data = model.createData()
+        rng = np.random.default_rng(3)
+        worst = 0.0
+        for _ in range(6):
+            q = rng.uniform(np.maximum(model.lowerPositionLimit, -math.pi), np.minimum(model.upperPositionLimit, math.pi))
+            plant = np.array(pb.calculateMassMatrix(sc.robot, q.tolist(), physicsClientId=sc.client))
+            m = pin.crba(model, data, q)
+            m = np.triu(m) + np.triu(m, 1).T
+            worst = max(worst, float(np.abs(plant - m).max() / np.abs(m).max()))
+    finally:
+        sc.close()
+    assert worst < 1e-9, worst
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_the_compiled_step_is_the_python_step(robot):
+    """Torques of the generated C step against the Python step on random states and commands, free
+    and pressing; on 7-joint arms this includes the null space's posture term."""
+    urdf = robot_urdf(SpatulaGeometry(), robot=robot)
+    cfg = ControllerConfig(selection=(1.0, 1.0, 0.2, 1.0, 1.0, 1.0))
+    fast, ref = CompiledController(urdf, PAYLOAD, config=cfg), HybridController(urdf, PAYLOAD, config=cfg)
+    home = np.array(get_robot(robot).home)
+    rng = np.random.default_rng(5)
+    worst = 0.0
+    for _ in range(30):
+        q0 = home + rng.normal(scale=0.2, size=home.size)
+        fast.reset(q0)
+        ref.reset(q0)
+        for k in range(3):
+            q = q0 + rng.normal(scale=0.01, size=home.size)
+            cmd = TaskCommand(position=np.array([0.3, 0.05, 0.05]) + rng.normal(scale=0.03, size=3),
+                              velocity=rng.normal(scale=0.2, size=6), force_z=rng.uniform(0.0, 20.0))
+            force = None if k == 0 else rng.normal(scale=5.0, size=3)
+            a, b = fast.step(q, force, cmd), ref.step(q, force, cmd)
+            worst = max(worst, float(np.abs(a - b).max() / max(1.0, np.abs(b).max())))
+    assert worst < 1e-9, worst
+
+
+def test_the_null_space_term_moves_no_tool_coordinate():
+    """On a 7-joint arm the posture regulation changes the joint accelerations but not J qdd: the
+    same tool command with the arm reset to another rest posture gives the same task acceleration."""
+    urdf = robot_urdf(SpatulaGeometry(), robot="panda")
+    ctl = HybridController(urdf, PAYLOAD, config=ControllerConfig(step="python"))
+    q = np.array(get_robot("panda").home)
+    J = pin.computeFrameJacobian(ctl.model, ctl.model.createData(), q, ctl.tcp, pin.LOCAL_WORLD_ALIGNED)
+    xdd = np.array([0.3, -0.2, 0.1, 0.05, 0.0, -0.1])
+    v = np.linspace(-0.2, 0.2, 7)
+    ctl.reset(q)
+    near = ctl._redundant(J, xdd, q, v)
+    ctl.reset(q + 0.3)  # a rest posture far away: a large posture term
+    far = ctl._redundant(J, xdd, q, v)
+    assert np.abs(near - far).max() > 0.5  # the posture term acts ...
+    np.testing.assert_allclose(J @ near, xdd, atol=1e-9)  # ... in the null space only
+    np.testing.assert_allclose(J @ far, xdd, atol=1e-9)
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_the_scooping_line_lies_in_the_workspace_with_margin(robot):
+    """IK along the whole line the rollout may command (blade on the plate and lifted), on the home
+    posture's branch, at least 0.1 rad from every joint limit and away from a singularity."""
+    r = scoop_line(robot)
+    assert r.reached.all(), r.segment()
+    assert r.margin.min() > 0.1 and r.sigma_min.min() > 0.02, (r.margin.min(), r.sigma_min.min())
+
+
+def test_a_placement_out_of_reach_is_seen():
+    """The check above can fail: the home posture's branch with the base moved 0.4 m back reaches only part of the line."""
+    import dataclasses
+
+    from judgeopt.robots import register_robot
+
+    far = dataclasses.replace(get_robot("ur3"), name="ur3_far", base_xyz=(-0.4, 0.0, 0.15))
+    register_robot(far)
+    r = scoop_line("ur3_far")
+    assert not r.reached.all()
+
+
+def test_the_ur3_file_carries_the_ur10_limits_and_the_written_urdf_the_makers():
+    """The UR3 file's limits are the UR10's (330/150/54 N m); Universal Robots gives 56/56/28/12/12/12
+    N m and 180/360 deg/s for the UR3. The URDF judgeopt writes holds the maker's."""
+    from judgeopt.sim.robot import example_robot_data_prefix
+
+    share = example_robot_data_prefix() / "example-robot-data/robots/ur_description/urdf"
+    shipped = pin.buildModelFromUrdf(str(share / "ur3_robot.urdf"))
+    ur10 = pin.buildModelFromUrdf(str(share / "ur10_robot.urdf"))
+    np.testing.assert_array_equal(shipped.effortLimit, ur10.effortLimit)
+    written = pin.buildModelFromUrdf(str(robot_urdf(robot="ur3")))
+    np.testing.assert_allclose(written.effortLimit, [56, 56, 28, 12, 12, 12])
+    np.testing.assert_allclose(written.velocityLimit, [math.pi] * 3 + [2 * math.pi] * 3, rtol=1e-4)
+
+
+def test_the_default_arms_file_is_unchanged_but_for_the_wrists():
+    """The UR5's written URDF keeps every joint limit of its file (the shipped data's scene)."""
+    from judgeopt.sim.robot import example_robot_data_prefix
+
+    share = example_robot_data_prefix() / "example-robot-data/robots/ur_description/urdf"
+    shipped = pin.buildModelFromUrdf(str(share / "ur5_robot.urdf"))
+    written = pin.buildModelFromUrdf(str(robot_urdf(robot="ur5")))
+    np.testing.assert_array_equal(written.effortLimit, shipped.effortLimit)
+    np.testing.assert_array_equal(written.velocityLimit, shipped.velocityLimit)
+    assert written.nq == 6
+
+
+def test_an_unknown_robot_is_one_line_naming_the_known_ones():
+    with pytest.raises(RobotError, match="known robots are .*ur5"):
+        get_robot("ur6")
