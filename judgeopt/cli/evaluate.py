@@ -362,7 +362,8 @@ def _calibration(problem, path: str | None) -> tuple[dict, dict]:
 
 
 def _argv(args: argparse.Namespace) -> list[str]:
-    extra = (["--problem", args.problem] if args.problem else []) + (["--methods", *args.methods] if args.methods else [])
+    extra = (["--problem", args.problem] if args.problem else []) + (["--robot", args.robot] if args.robot else [])
+    extra += ["--methods", *args.methods] if args.methods else []
     extra += (["--rows", *map(repr, args.rows)] if args.rows else []) + (
         ["--judge", args.judge] if args.judge else [])
     extra += (["--limits", *map(repr, args.limits)] if args.limits else []) + (["--vary", f"{args.vary[0]}={args.vary[1][0]:g},{args.vary[1][1]:g}"] if args.vary else [])

@@ -99,12 +99,15 @@ class JointMap:
         tau = (grav + force * cs.repmat(cs.reshape(f, 1, n), nj, 1)) * cs.repmat(inv_t, 1, n)
         return cs.vertcat(cs.vec(vel), cs.vec(tau))
 
-    def exact(self, plan: Plan) -> tuple[np.ndarray, np.ndarray]:
+    def exact(self, plan: Plan, between: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Joint velocities (N, joints; samples 1..N) and torques (N + 1, joints), from IK at each
-        sample's position (not the tables)."""
+        sample's position (not the tables). `between`: also halfway between samples (position,
+        velocity and force interpolated linearly), where a joint's rate can peak: rows 2N - 1 and 2N + 1."""
         pos = plan.values[:, _column(plan, "position")]
         vel = plan.values[:, _column(plan, "velocity")]
         force = plan.values[:, _column(plan, "force")]
+        if between:
+            pos, vel, force = (np.insert(x, np.arange(1, len(x)), 0.5 * (x[1:] + x[:-1])) for x in (pos, vel, force))
         rates, taus = [], []
         for y, ydot, fk in zip(pos, vel, force):
             start = self.configs[int(np.argmin(np.abs(self.grid - y)))]  # the tabulated branch
@@ -114,8 +117,9 @@ class JointMap:
         return np.array(rates)[1:], np.array(taus)
 
     def residuals(self, plan: Plan, scale: float) -> dict[str, float]:
-        """Worst |joint velocity| - scale * limit (rad/s) and |joint torque| - scale * limit (N m), >= 0."""
-        qd, tau = self.exact(plan)
+        """Worst |joint velocity| - scale * limit (rad/s) and |joint torque| - scale * limit (N m), >= 0,
+        at the samples and halfway between them."""
+        qd, tau = self.exact(plan, between=True)
         over_v = np.abs(qd) - scale * self.velocity_limit
         over_t = np.abs(tau) - scale * self.torque_limit
         return {"joint_velocity": max(0.0, float(over_v.max(initial=-np.inf))),

@@ -188,3 +188,16 @@ def _fit(task) -> dict:
     n = len(task.channels_of("position"))
     return {} if n == 1 else {k: [v] * n for k, v in (("q0", 0.0), ("qdot0", 0.0), ("q_min", -0.2), ("q_max", 0.4),
                                                        ("qdot_min", -0.05), ("qdot_max", 1.0))}
+
+
+def test_the_check_between_samples_reads_the_mean_of_its_neighbours(jmap: jl.JointMap) -> None:
+    """The check halfway between samples: every sample still checked, and between samples 2 and 3
+    the torque is gravity + J^T f at the mean position with the mean force (Pinocchio, by hand)."""
+    rng = np.random.default_rng(4)
+    plan = _random_plan(rng, 6)
+    qd, tau = jmap.exact(plan, between=True)
+    assert qd.shape == (2 * 6, jmap.n_joints) and tau.shape == (2 * 6 + 1, jmap.n_joints)
+    np.testing.assert_allclose(qd[1::2], jmap.exact(plan)[0], atol=1e-9)  # every sample still checked
+    y, f = (plan.values[:, j] for j in (0, 2))
+    _, _, grav, per_f = jl.joint_kinematics(jmap.arm, float(0.5 * (y[2] + y[3])), _ik(jmap, float(y[2])))
+    np.testing.assert_allclose(tau[5], grav + per_f * 0.5 * (f[2] + f[3]), rtol=1e-6, atol=1e-6)
