@@ -32,6 +32,11 @@ def main() -> None:
     ap.add_argument("--judges", nargs="+", default=["models/judge_demos_tcn", "models/judge_refined"])
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--out", default="out/arms_reuse")
+    ap.add_argument("--finetune", type=int, metavar="SEED",
+                    help="also fine-tune the first --judges judge on each arm's own demonstrations of this seed (another "
+                    "collection), the first 100, 300 and 1,000, and score it on the test demonstrations above")
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 300, 1000])
+    ap.add_argument("--epochs", type=int, default=15)
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -80,6 +85,45 @@ def main() -> None:
     ax.set_title(f"UR5 demonstrations and judges on other arms ({args.n} random demonstrations each)", fontsize=9)
     save_figure(fig, out / "reuse.png", dpi=110)
     print(f"wrote {out / 'reuse.md'} and {out / 'reuse.png'}")
+    if args.finetune is not None:
+        finetune(args, data, out)
+
+
+def finetune(args: argparse.Namespace, tests: dict, out: Path) -> None:
+    """The first judge fine-tuned (its architecture and normalisation kept) on the first k of each arm's
+    own demonstrations of seed --finetune, for each k of --sizes; accuracy on that arm's test set."""
+    import json
+
+    from judgeopt.judge.train import TrainConfig, train_judge
+
+    task = get_task("scoop")
+    base, _ = load_judge(resolve(args.judges[0], (".json",)))
+    name = Path(args.judges[0]).name
+    done_path = out / f"finetune_s{args.finetune}.json"
+    done = json.loads(done_path.read_text()) if done_path.exists() else {}
+    for r in tests:
+        if r == DEFAULT_ROBOT:
+            continue
+        path = out / f"{r}_train_s{args.finetune}.h5"
+        spec = CollectionSpec(task="scoop", seed=args.finetune, n=max(args.sizes), settings=task.robot_settings(r))
+        train = load(path) if path.exists() else collect(spec, path, n_jobs=args.jobs, progress=True)
+        for k in args.sizes:
+            key = f"{r}:{k}"
+            if key not in done:
+                model, _ = train_judge(train.subset(np.arange(k)), None, None,
+                                       TrainConfig(epochs=args.epochs, lr=5e-4, seed=0, progress=False), init=base)
+                done[key] = evaluate_judge(model, tests[r])["accuracy"]
+                atomic_write(done_path, json.dumps(done))  # resumable: one fine-tune at a time
+            print(f"{r}: {name} fine-tuned on {k} of its demonstrations: accuracy {done[key]:.3f}", flush=True)
+    head = ["arm", f"{name} as trained", *(f"fine-tuned on {k}" for k in args.sizes)]
+    lines = [f"| {' | '.join(head)} |", f"|{'---|' * len(head)}"]
+    for r, ds in tests.items():
+        if r != DEFAULT_ROBOT:
+            lines.append(f"| {r} | {evaluate_judge(base, ds)['accuracy']:.3f} | "
+                         + " | ".join(f"{done[f'{r}:{k}']:.3f}" for k in args.sizes) + " |")
+    atomic_write(out / "finetune.md", f"Command: `python scripts/arm_reuse.py --n {args.n} --seed {args.seed} "
+                 f"--finetune {args.finetune} --out {args.out}`\n\n" + "\n".join(lines) + "\n")
+    print("\n".join(lines))
 
 
 if __name__ == "__main__":

@@ -18,7 +18,7 @@ def describe(name: str, reach: bool = False) -> dict[str, Any]:
 
     spec = get_robot(name)
     model = pin.buildModelFromUrdf(str(robot_urdf(robot=name)))
-    corrections = [{"what": f"{kind} of {part}", "value": fix.value, "source": fix.source}
+    corrections = [{"kind": kind, "part": part, "value": fix.value, "source": fix.source}
                    for kind, table in (("velocity limit", spec.velocity_limits), ("effort limit", spec.effort_limits),
                                        ("inertia", spec.inertias)) for part, fix in table.items()]
     d = {"name": spec.name, "title": spec.title, "description": spec.description, "joints": list(spec.joints),
@@ -47,7 +47,10 @@ def text(d: dict[str, Any]) -> str:
         lines.append("  reach on the scooping line: " + ("none" if d["reach"] is None else
                      f"y {d['reach'][0]:g} to {d['reach'][1]:g} m, joints at least {d['joint_limit_margin']:g} rad "
                      "from their limits"))
-    lines += [f"  corrected: {c['what']} -> {c['value']} ({c['source']})" for c in d["corrections"]]
+    by: dict[tuple[str, str], list[str]] = {}  # (kind, source) -> "part value", in the config's order
+    for c in d["corrections"]:
+        by.setdefault((c["kind"], c["source"]), []).append(f"{c['part']} {c['value']}")
+    lines += [f"  corrected {kind}: {', '.join(items)} (from {source})" for (kind, source), items in by.items()]
     if d["notes"]:
         lines.append(f"  note: {d['notes']}")
     return "\n".join(lines)

@@ -1,0 +1,54 @@
+"""`judgeopt robots` and `--robot`: the arms as a user lists and picks them, and what picking one changes."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from judgeopt.cli import main
+from judgeopt.planners.calibration import setting_id
+from judgeopt.planners.problem import ProblemError, load_problem
+from judgeopt.robots import robot_names
+from judgeopt.verdict.risk import Evidence
+
+
+def test_robots_lists_every_arm_with_the_makers_corrections(capsys):
+    assert main(["robots", "--json"]) == 0
+    arms = {d["name"]: d for d in json.loads(capsys.readouterr().out)}
+    assert set(arms) == set(robot_names())
+    ur3 = arms["ur3"]
+    assert ur3["effort_limit"] == [56.0, 56.0, 28.0, 12.0, 12.0, 12.0]  # the UR10's 330/.../54 in the file
+    assert all("ur3/joint_limits.yaml" in c["source"] for c in ur3["corrections"])
+    assert len(arms["panda"]["joints"]) == 7 and not arms["panda"]["corrections"]
+
+
+def test_robots_text_names_the_correction_and_the_reach(capsys):
+    assert main(["robots", "ur3", "--reach"]) == 0
+    text = capsys.readouterr().out
+    assert "corrected effort limit: shoulder_pan_joint 56.0" in text and "reach on the scooping line: y -0.25 to 0.45" in text
+
+
+def test_an_unknown_arm_is_one_line(capsys):
+    assert main(["robots", "ur6"]) == 5
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "known robots are" in err[0]
+    with pytest.raises(ProblemError, match="unknown robot 'ur6'"):
+        load_problem("paper_sim").with_overrides(robot="ur6")
+
+
+def test_another_arm_holds_its_joint_limits_and_has_its_own_calibration_setting():
+    """Planned for another arm, the problem holds that arm's joint limits (scale 1 unless set) and its
+    calibration setting differs from the UR5's, whose records read as before (no robot key)."""
+    ur5 = load_problem("paper_sim")
+    kinova = ur5.with_overrides(robot="kinova")
+    assert ur5.joint_limit_scale is None and "robot" not in ur5.to_dict()
+    assert kinova.joint_limit_scale == 1.0 and kinova.to_dict()["robot"] == "kinova"
+    assert ur5.with_overrides(robot="kinova", joint_limit_scale=0.5).joint_limit_scale == 0.5
+    assert setting_id("direct", ur5, {"judge": "x"}) != setting_id("direct", kinova, {"judge": "x"})
+
+
+def test_evidence_drawn_on_one_arm_says_nothing_of_another():
+    ev = Evidence("direct", "abc", 0.95, [], {}, ranges={"qdot_max": [0.3, 1.0]})  # stored before arms: the UR5's
+    assert ev.outside({"qdot_max": 0.5}) == [] and ev.outside({"qdot_max": 0.5, "robot": "ur5"}) == []
+    assert ev.outside({"qdot_max": 0.5, "robot": "panda"}) == ["robot panda (ur5)"]
