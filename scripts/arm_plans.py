@@ -32,7 +32,8 @@ def run(robot: str, qdot_max: float, n: int, seed: int) -> dict:
     sim = judgeopt.simulator(own.task, robot)
     arm_joints = joint_map(own)
     envs = own.sample_env(np.random.default_rng(seed), n)
-    out: dict[str, dict] = {k: {"success": 0, "held": 0, "planned": 0, "binding": {}} for k in planners}
+    out: dict[str, dict] = {k: {"success": 0, "held": 0, "planned": 0, "likely": 0, "likely_failed": 0, "binding": {}}
+                            for k in planners}
     for e in tqdm(envs, desc=f"{robot} q̇_max {qdot_max:g}", leave=False):
         env = own.env_dict(dict(zip(own.env_names, map(float, e))))
         for name, p in planners.items():
@@ -41,7 +42,11 @@ def run(robot: str, qdot_max: float, n: int, seed: int) -> dict:
                 continue
             o = out[name]
             o["planned"] += 1
-            o["success"] += int(sim.simulate(r.plan, env).success)
+            ok = bool(sim.simulate(r.plan, env).success)
+            o["success"] += int(ok)
+            if r.verdict == "likely":  # as solve says it for the arm it planned for (the UR5's plan: for the UR5)
+                o["likely"] += 1
+                o["likely_failed"] += int(not ok)
             o["held"] += int(max(arm_joints.residuals(r.plan, 1.0).values()) <= HOLD)
             joint, kind, ratio = arm_joints.binding(r.plan, 1.0)
             if ratio > 1.0 + HOLD:
@@ -59,8 +64,8 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    lines = ["| arm | q̇_max [m/s] | plan | simulated success | holds the arm's joint limits | joints over their limit |",
-             "|---|---|---|---|---|---|"]
+    lines = ["| arm | q̇_max [m/s] | plan | simulated success on the arm | holds the arm's joint limits | called likely / "
+             "of them failed on the arm | joints over their limit (plans) |", "|---|---|---|---|---|---|---|"]
     for robot in args.robots:
         for q in args.qdot_max:
             path = out / f"{robot}_{q:g}_s{args.seed}_n{args.n}.json"
@@ -70,7 +75,7 @@ def main() -> None:
             for name, o in res["plans"].items():
                 over = ", ".join(f"{k} ({v})" for k, v in sorted(o["binding"].items(), key=lambda kv: -kv[1])) or "-"
                 lines.append(f"| {robot} | {q:g} | {name} | {o['success']}/{o['planned']} | {o['held']}/{o['planned']} "
-                             f"| {over} |")
+                             f"| {o['likely']} / {o['likely_failed']} | {over} |")
     table = "\n".join(lines) + "\n"
     atomic_write(out / "arm_plans.md", f"Command: `python scripts/arm_plans.py --n {args.n} --seed {args.seed}`\n\n"
                  + table)

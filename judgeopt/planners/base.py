@@ -100,8 +100,16 @@ class Planner(ABC):
         raise ProblemError(f"planner {self.method!r} plans for one environment; it cannot plan over a set")
 
     def details(self, result: "PlanResult") -> list[str]:
-        """Lines `judgeopt solve` prints about this planner's result below the table (none by default)."""
-        return []
+        """Lines `judgeopt solve` prints about this planner's result below the table: where the arm's
+        joint limits are held (joint_limit_scale), the joint nearest its scaled limit, or furthest over it."""
+        scale = getattr(self.problem, "joint_limit_scale", None)
+        if scale is None or result.plan is None:
+            return []
+        from judgeopt.planners.joint_limits import joint_map
+
+        joint, quantity, ratio = joint_map(self.problem).binding(result.plan, scale)
+        where = "over" if ratio > 1.0 + 1e-6 else "the nearest"
+        return [f"{result.method}, joints: {joint}'s {quantity} is {where} its limit x {scale:g}, at {ratio:.0%} of it"]
 
 
 class ClosedLoopPlanner(Planner):

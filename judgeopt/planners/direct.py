@@ -446,19 +446,14 @@ class DirectPlanner(Planner):
         return ", ".join(f"{k} by {v:.3g}" for k, v in sorted(over.items(), key=lambda kv: -kv[1]))
 
     def details(self, result: PlanResult) -> list[str]:
-        """Under min_time, the time found against the horizon; with joint limits, the joint
-        nearest its scaled limit."""
+        """Under min_time, the time found against the horizon; then Planner.details (the binding joint)."""
         lines = []
         if result.info.get("min_time_s") is not None:
             tried = ", ".join(f"{t} s {'yes' if ok else 'no'}" for t, ok in result.info["min_time_tried"].items())
             lines.append(f"{self.method}, min-time: at rest at the terminal state from t = "
                          f"{result.info['min_time_s']:g} s of the {result.info['horizon_s']:g} s horizon "
                          f"(candidates, p >= {self.problem.p_target:g} reached: {tried})")
-        if self._joints is not None and result.plan is not None:
-            joint, quantity, ratio = self._joints.binding(result.plan, self.problem.joint_limit_scale)
-            lines.append(f"{self.method}, joints: {joint}'s {quantity} is the nearest its limit x "
-                         f"{self.problem.joint_limit_scale:g}, at {ratio:.0%} of it")
-        return lines
+        return lines + super().details(result)
 
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""

@@ -64,6 +64,9 @@ def load_arm(client: int, spatula: SpatulaGeometry, wrist_inertia: str = "univer
         pb.setCollisionFilterGroupMask(body_id, j, 0, 0, physicsClientId=client)
     for j in body.arm_joints:  # torque control: switch off the default velocity motors
         pb.setJointMotorControl2(body_id, j, pb.VELOCITY_CONTROL, force=0, physicsClientId=client)
+        if spec.cap_joint_speed:  # no faster than its drive (RobotSpec.cap_joint_speed)
+            limit = pb.getJointInfo(body_id, j, physicsClientId=client)[11]
+            pb.changeDynamics(body_id, j, maxJointVelocity=limit, physicsClientId=client)
     pb.enableJointForceTorqueSensor(body_id, body.ft_joint, True, physicsClientId=client)
     return body
 
