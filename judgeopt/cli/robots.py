@@ -8,9 +8,10 @@ import json
 from typing import Any
 
 
-def describe(name: str, reach: bool = False) -> dict[str, Any]:
-    """One arm as a dict: its config, the joints' limits from the written URDF (Pinocchio), and with
-    `reach` the segment of the scooping line it holds the spatula on (judgeopt.sim.placement)."""
+def describe(name: str, reach: bool = False, check: bool = False) -> dict[str, Any]:
+    """One arm as a dict: its config, the joints' limits from the written URDF (Pinocchio); with
+    `reach` the segment of the scooping line it holds the spatula on (judgeopt.sim.placement); with
+    `check` the plant = model and compiled = Python step errors (judgeopt.sim.checks)."""
     import pinocchio as pin
 
     from judgeopt.robots import get_robot
@@ -31,6 +32,10 @@ def describe(name: str, reach: bool = False) -> dict[str, Any]:
         r = scoop_line(name)
         d["reach"] = r.segment()
         d["joint_limit_margin"] = round(float(r.margin[r.reached].min()), 3) if r.reached.any() else None
+    if check:
+        from judgeopt.sim.checks import compiled_step_error, plant_model_error
+
+        d["plant_model_error"], d["compiled_step_error"] = plant_model_error(name), compiled_step_error(name)
     return d
 
 
@@ -47,6 +52,9 @@ def text(d: dict[str, Any]) -> str:
         lines.append("  reach on the scooping line: " + ("none" if d["reach"] is None else
                      f"y {d['reach'][0]:g} to {d['reach'][1]:g} m, joints at least {d['joint_limit_margin']:g} rad "
                      "from their limits"))
+    if "plant_model_error" in d:
+        lines.append(f"  checks: plant = model to {d['plant_model_error']:.1e} (mass matrices), compiled step = Python "
+                     f"step to {d['compiled_step_error']:.1e} (torques); both must be below 1e-9")
     by: dict[tuple[str, str], list[str]] = {}  # (kind, source) -> "part value", in the config's order
     for c in d["corrections"]:
         by.setdefault((c["kind"], c["source"]), []).append(f"{c['part']} {c['value']}")
@@ -62,7 +70,7 @@ def cmd_robots(args: argparse.Namespace) -> int:
     names = [args.robot] if args.robot else robot_names()
     for n in names:
         get_robot(n)  # an unknown arm: one line naming the known ones
-    found = [describe(n, args.reach) for n in names]
+    found = [describe(n, args.reach, args.check) for n in names]
     print(json.dumps(found) if args.json else "\n".join(text(d) for d in found))
     return 0
 
@@ -72,8 +80,11 @@ def add_robots_command(sub: argparse._SubParsersAction, parents: list) -> None:
                        description="Each arm (--robot NAME on solve, collect, evaluate, render): its joints' velocity "
                        "and effort limits as the simulator and planners read them, its mass, where its base stands in "
                        "the scene, and every figure of its description file replaced by the maker's, with the source. "
-                       "--reach adds the segment of the scooping line it holds the spatula on (IK along the line).",
+                       "--reach adds the segment of the scooping line it holds the spatula on (IK along the line), --check the "
+                       "plant = model and compiled = Python step checks.",
                        parents=parents)
     r.add_argument("robot", nargs="?", help="one arm (default: every arm)")
     r.add_argument("--reach", action="store_true", help="also the reach on the scooping line (about 1 s per arm)")
+    r.add_argument("--check", action="store_true", help="also check that PyBullet's mass matrix is Pinocchio's and that "
+                   "the compiled control step is the Python one (a few seconds per arm; the first builds its step)")
     r.set_defaults(func=cmd_robots)

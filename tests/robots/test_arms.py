@@ -14,8 +14,8 @@ from judgeopt.robots import DEFAULT_ROBOT, get_robot, robot_names
 from judgeopt.robots.spec import RobotError
 from judgeopt.sim.compiled import CompiledController
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand
+from judgeopt.sim.checks import compiled_step_error, plant_model_error
 from judgeopt.sim.placement import scoop_line
-from judgeopt.sim.quiet import pb
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 
 ARMS = robot_names()
@@ -30,48 +30,45 @@ def test_at_least_five_arms_besides_the_default():
 def test_the_plant_is_the_model(robot):
     """PyBullet's mass matrix (what it integrates) equals Pinocchio's (M and Lambda in the controller)
     at random postures, for the URDF as written: hand removed, fingers fixed, base placed."""
-    from judgeopt.tasks.scoop.scene import Scene, SceneConfig
-
-    sc = Scene(SceneConfig(robot=robot), visual_shapes=False)
-    try:
-        model = pin.buildModelFromUrdf(str(sc.urdf_path))
-        assert tuple(model.names[1:]) == get_robot(robot).joints
-        data = model.createData()
-        rng = np.random.default_rng(3)
-        worst = 0.0
-        for _ in range(6):
-            q = rng.uniform(np.maximum(model.lowerPositionLimit, -math.pi), np.minimum(model.upperPositionLimit, math.pi))
-            plant = np.array(pb.calculateMassMatrix(sc.robot, q.tolist(), physicsClientId=sc.client))
-            m = pin.crba(model, data, q)
-            m = np.triu(m) + np.triu(m, 1).T
-            worst = max(worst, float(np.abs(plant - m).max() / np.abs(m).max()))
-    finally:
-        sc.close()
-    assert worst < 1e-9, worst
+    assert tuple(pin.buildModelFromUrdf(str(robot_urdf(robot=robot))).names[1:]) == get_robot(robot).joints
+    error = plant_model_error(robot)
+    assert error < 1e-9, error
 
 
 @pytest.mark.parametrize("robot", ARMS)
 def test_the_compiled_step_is_the_python_step(robot):
     """Torques of the generated C step against the Python step on random states and commands, free
     and pressing; on 7-joint arms this includes the null space's posture term."""
-    urdf = robot_urdf(SpatulaGeometry(), robot=robot)
-    cfg = ControllerConfig(selection=(1.0, 1.0, 0.2, 1.0, 1.0, 1.0))
-    fast, ref = CompiledController(urdf, PAYLOAD, config=cfg), HybridController(urdf, PAYLOAD, config=cfg)
-    home = np.array(get_robot(robot).home)
-    rng = np.random.default_rng(5)
-    worst = 0.0
-    for _ in range(30):
-        q0 = home + rng.normal(scale=0.2, size=home.size)
-        fast.reset(q0)
-        ref.reset(q0)
-        for k in range(3):
-            q = q0 + rng.normal(scale=0.01, size=home.size)
-            cmd = TaskCommand(position=np.array([0.3, 0.05, 0.05]) + rng.normal(scale=0.03, size=3),
-                              velocity=rng.normal(scale=0.2, size=6), force_z=rng.uniform(0.0, 20.0))
-            force = None if k == 0 else rng.normal(scale=5.0, size=3)
-            a, b = fast.step(q, force, cmd), ref.step(q, force, cmd)
-            worst = max(worst, float(np.abs(a - b).max() / max(1.0, np.abs(b).max())))
-    assert worst < 1e-9, worst
+    error = compiled_step_error(robot)
+    assert error < 1e-9, error
+
+
+def test_the_checks_can_fail():
+    """A controller whose payload is not the plant's, and a scene whose plant integrates the collision
+    shapes' inertias, are both seen (else the two checks above could pass whatever the code did)."""
+    from judgeopt.sim.checks import mass_matrix_error
+    from judgeopt.tasks.scoop.scene import Scene, SceneConfig
+
+    assert compiled_step_error("ur5", n=3) < 1e-9 < compiled_step_error_with_other_payload()
+    sc = Scene(SceneConfig(robot="panda", plant_inertia="collision_shapes"), visual_shapes=False)
+    try:
+        assert mass_matrix_error(sc.client, sc.robot, sc.urdf_path) > 0.01
+    finally:
+        sc.close()
+
+
+def compiled_step_error_with_other_payload() -> float:
+    """The compiled step against a Python step told another payload: far apart."""
+    urdf = robot_urdf(SpatulaGeometry(), robot="ur5")
+    cfg = ControllerConfig()
+    fast, ref = CompiledController(urdf, PAYLOAD, config=cfg), HybridController(urdf, 3 * PAYLOAD, config=cfg)
+    q = np.array(get_robot("ur5").home)
+    fast.reset(q)
+    ref.reset(q)
+    cmd = TaskCommand(position=np.array([0.3, 0.0, 0.01]), force_z=10.0)
+    fast.step(q, None, cmd), ref.step(q, None, cmd)
+    f = np.array([0.0, 0.0, 5.0])
+    return float(np.abs(fast.step(q, f, cmd) - ref.step(q, f, cmd)).max())
 
 
 def test_the_null_space_term_moves_no_tool_coordinate():

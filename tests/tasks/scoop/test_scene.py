@@ -99,22 +99,12 @@ def test_plant_mass_matrix_is_the_controllers(plant, wrists, agree):
     """PyBullet's mass matrix (the plant) against Pinocchio's CRBA on the same URDF (the model
     in the controller's M and Lambda), at random postures. The default scene must agree; the
     documented model-error option must really differ (else this check could not fail)."""
-    import pinocchio as pin
-
+    from judgeopt.sim.checks import mass_matrix_error
     from judgeopt.tasks.scoop.scene import Scene, SceneConfig
 
     sc = Scene(SceneConfig(plant_inertia=plant, wrist_inertia=wrists))
     try:
-        model = pin.buildModelFromUrdf(str(sc.urdf_path))
-        data = model.createData()
-        rng = np.random.default_rng(7)
-        worst = 0.0
-        for _ in range(8):
-            q = rng.uniform(-math.pi, math.pi, model.nq)
-            plant_m = np.array(pb.calculateMassMatrix(sc.robot, q.tolist(), physicsClientId=sc.client))
-            model_m = pin.crba(model, data, q)
-            model_m = np.triu(model_m) + np.triu(model_m, 1).T
-            worst = max(worst, float(np.abs(plant_m - model_m).max() / np.abs(model_m).max()))
+        worst = mass_matrix_error(sc.client, sc.robot, sc.urdf_path, n=8, seed=7)
     finally:
         sc.close()
     assert (worst < 1e-9) if agree else (worst > 0.05), worst
