@@ -52,3 +52,18 @@ def test_evidence_drawn_on_one_arm_says_nothing_of_another():
     ev = Evidence("direct", "abc", 0.95, [], {}, ranges={"qdot_max": [0.3, 1.0]})  # stored before arms: the UR5's
     assert ev.outside({"qdot_max": 0.5}) == [] and ev.outside({"qdot_max": 0.5, "robot": "ur5"}) == []
     assert ev.outside({"qdot_max": 0.5, "robot": "panda"}) == ["robot panda (ur5)"]
+
+
+def test_collect_records_the_arm_and_a_dataset_knows_it(tmp_path, capsys):
+    """Demonstrations collected on another arm say so (their settings' scene.robot, Dataset.robot, which
+    render replays on); a file made before arms were chosen reads as the UR5's."""
+    from judgeopt.data.dataset import Dataset, load
+
+    out = tmp_path / "panda.h5"
+    assert main(["collect", "--robot", "panda", "--n", "2", "--seed", "3", "--out", str(out), "--jobs", "1", "--quiet"]) == 0
+    ds = load(out)
+    assert ds.robot == "panda" and ds.meta["settings"]["scene"]["robot"] == "panda"
+    old = Dataset(ds.commands, ds.responses, ds.labels, ds.env, ds.dt, ds.env_names,
+                  meta={"settings": {"scene": {"x_home": 0.3}}})
+    assert old.robot == "ur5"
+    assert main(["collect", "--robot", "ur6", "--n", "2", "--out", str(tmp_path / "x.h5")]) == 5
