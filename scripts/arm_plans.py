@@ -64,6 +64,7 @@ def main() -> None:
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    results = []
     lines = ["| arm | q̇_max [m/s] | plan | simulated success on the arm | holds the arm's joint limits | called likely / "
              "of them failed on the arm | joints over their limit (plans) |", "|---|---|---|---|---|---|---|"]
     for robot in args.robots:
@@ -72,6 +73,7 @@ def main() -> None:
             if not path.exists():
                 atomic_write(path, json.dumps(run(robot, q, args.n, args.seed)))
             res = json.loads(path.read_text())
+            results.append(res)
             for name, o in res["plans"].items():
                 over = ", ".join(f"{k} ({v})" for k, v in sorted(o["binding"].items(), key=lambda kv: -kv[1])) or "-"
                 lines.append(f"| {robot} | {q:g} | {name} | {o['success']}/{o['planned']} | {o['held']}/{o['planned']} "
@@ -80,6 +82,28 @@ def main() -> None:
     atomic_write(out / "arm_plans.md", f"Command: `python scripts/arm_plans.py --n {args.n} --seed {args.seed}`\n\n"
                  + table)
     print(table)
+    plot(results, out / "arm_plans.png")
+
+
+def plot(results: list[dict], path: Path) -> None:
+    """Per arm and speed limit: the share of plans that succeeded on the arm and the share that held its
+    joint limits, the UR5's plans beside the arm's own."""
+    import matplotlib.pyplot as plt
+
+    from judgeopt.files import save_figure
+
+    fig, axes = plt.subplots(1, 2, figsize=(9, 3.2), sharey=True)
+    labels = [f"{r['robot']}\n{r['qdot_max']:g} m/s" for r in results]
+    x = np.arange(len(results))
+    for ax, key, title in zip(axes, ("success", "held"), ("simulated success on the arm", "holds the arm's joint limits")):
+        for k, (name, colour) in enumerate((("made for the UR5", "tab:gray"), ("made for the arm", "tab:blue"))):
+            values = [list(r["plans"].values())[k] for r in results]
+            ax.bar(x + (k - 0.5) * 0.4, [v[key] / max(v["planned"], 1) for v in values], 0.4, label=name, color=colour)
+        ax.set_xticks(x, labels, fontsize=7)
+        ax.set_title(title, fontsize=9)
+    axes[0].set_ylabel("share of plans")
+    axes[0].legend(fontsize=7, loc="lower left")
+    save_figure(fig, path, dpi=110)
 
 
 if __name__ == "__main__":
