@@ -86,18 +86,28 @@ class JointMap:
 
     def rows(self, q: Any, v: Any, f: Any) -> Any:
         """Constraint rows normalised by the limits, for q, v, f (N + 1, 1) columns: joint velocity
-        / limit for k = 1..N (joints fastest), then joint torque / limit for k = 0..N; hold them in
-        [-scale, scale]."""
+        / limit for k = 1..N (joints fastest), joint torque / limit for k = 0..N, then both halfway
+        between samples (q, v, f their neighbours' means, as `exact(between=True)` checks them); hold
+        them in [-scale, scale]."""
+        import casadi as cs
+
+        def mid(x: Any) -> Any:
+            return 0.5 * (x[:-1] + x[1:])
+
+        vel, tau = self._rows(q, v, f)
+        vel_mid, tau_mid = self._rows(mid(q), mid(v), mid(f))
+        return cs.vertcat(cs.vec(vel[:, 1:]), cs.vec(tau), cs.vec(vel_mid), cs.vec(tau_mid))
+
+    def _rows(self, q: Any, v: Any, f: Any) -> tuple[Any, Any]:
+        """(joint velocity / limit, joint torque / limit), (joints, points) each, at the points q, v, f."""
         import casadi as cs
 
         n, nj = q.shape[0], self.n_joints
         T = self.table().map(n)(cs.reshape(q, 1, n))  # (3 nj, n)
         rate, grav, force = T[:nj, :], T[nj:2 * nj, :], T[2 * nj:, :]
-        inv_v = cs.DM(1.0 / self.velocity_limit)
-        inv_t = cs.DM(1.0 / self.torque_limit)
-        vel = rate[:, 1:] * cs.repmat(cs.reshape(v[1:], 1, n - 1), nj, 1) * cs.repmat(inv_v, 1, n - 1)
-        tau = (grav + force * cs.repmat(cs.reshape(f, 1, n), nj, 1)) * cs.repmat(inv_t, 1, n)
-        return cs.vertcat(cs.vec(vel), cs.vec(tau))
+        vel = rate * cs.repmat(cs.reshape(v, 1, n), nj, 1) * cs.repmat(cs.DM(1.0 / self.velocity_limit), 1, n)
+        tau = (grav + force * cs.repmat(cs.reshape(f, 1, n), nj, 1)) * cs.repmat(cs.DM(1.0 / self.torque_limit), 1, n)
+        return vel, tau
 
     def exact(self, plan: Plan, between: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Joint velocities (N, joints; samples 1..N) and torques (N + 1, joints), from IK at each

@@ -132,8 +132,10 @@ def test_casadi_rows_agree_with_the_exact_check(jmap: jl.JointMap) -> None:
     fn = cs.Function("rows", [q, v, f], [jmap.rows(q, v, f)])
     rows = np.array(fn(plan.y, plan.ydot, plan.f)).ravel()
     qd, tau = jmap.exact(plan)
-    expected = np.concatenate([(qd / jmap.velocity_limit).ravel(), (tau / jmap.torque_limit).ravel()])
-    assert rows.shape == ((n1 - 1) * 6 + n1 * 6,)
+    qd_b, tau_b = jmap.exact(plan, between=True)  # samples and midpoints interleaved
+    expected = np.concatenate([(qd / jmap.velocity_limit).ravel(), (tau / jmap.torque_limit).ravel(),
+                               (qd_b[0::2] / jmap.velocity_limit).ravel(), (tau_b[1::2] / jmap.torque_limit).ravel()])
+    assert rows.shape == ((n1 - 1) * 6 + n1 * 6 + 2 * (n1 - 1) * 6,)
     np.testing.assert_allclose(rows, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
     # differentiable: a Jacobian exists and is finite
     jac = cs.Function("rows_jacobian", [q, v, f], [cs.jacobian(jmap.rows(q, v, f), cs.vertcat(q, v, f))])
