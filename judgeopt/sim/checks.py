@@ -29,14 +29,17 @@ def mass_matrix_error(client: int, body: int, urdf_path: str, n: int = 6, seed: 
 
 
 def plant_model_error(robot: str, n: int = 6, seed: int = 3) -> float:
-    """mass_matrix_error of the arm `robot` as the scoop's scene loads it (hand removed, fingers fixed, base placed)."""
-    from judgeopt.tasks.scoop.scene import Scene, SceneConfig
+    """mass_matrix_error of the arm `robot` as every scene loads it (hand removed, fingers fixed, base placed,
+    inertias from the file), in a client of its own."""
+    from judgeopt.sim.arm import connect, load_arm
+    from judgeopt.sim.robot import SpatulaGeometry
 
-    sc = Scene(SceneConfig(robot=robot), visual_shapes=False)
+    client = connect(1e-3, 50)
     try:
-        return mass_matrix_error(sc.client, sc.robot, sc.urdf_path, n, seed)
+        body = load_arm(client, SpatulaGeometry(), visual_shapes=False, robot=robot)
+        return mass_matrix_error(client, body.robot, body.urdf_path, n, seed)
     finally:
-        sc.close()
+        pb.disconnect(physicsClientId=client)
 
 
 def compiled_step_error(robot: str, n: int = 30, seed: int = 5, payload: float = 1.27) -> float:
