@@ -167,6 +167,88 @@ def _with_method(path: str, method: str, several: bool) -> Path:
     return p.with_name(f"{p.stem}_{method}{p.suffix}") if several else p
 
 
+#: what solve --server sends: problem fields by the request's part (judgeopt.serve.schema.PlanRequest)
+SENT = {"limits": SECTIONS["limits"], "constraints": SECTIONS["constraints"], "objective": ("objective",)}
+
+
+def remote_request(args: argparse.Namespace) -> dict[str, Any]:
+    """The plan request for a service that solve's options make: the problem by name, the limits,
+    constraints, objective, environment and planners; an option a service is not sent is one line."""
+    from judgeopt.planners.problem import find_problem
+
+    local = {"--out": args.out, "--save-json": args.save_json, "--export": args.export, "--plot": args.plot,
+             "--generator": args.generator, "--models": args.models != "models", "--plugin": args.plugin,
+             "--simulate-env": args.simulate_env, "--warm-start": args.warm_start != "generator",
+             "--env-case": args.range_case != "worst", "--no-suggest": not args.suggest, "--risk": args.risk != RISK,
+             "--casadi-backend": args.casadi_backend != "auto"}
+    sent = {n for names in SENT.values() for n in names}
+    local.update({f"--{k[4:].replace('_', '-')}": v for k, v in vars(args).items()
+                  if k.startswith("set_") and k[4:] not in sent and v is not None})
+    given = [flag for flag, v in local.items() if v]
+    if given:
+        raise CLIError(f"{', '.join(given)}: not sent to a planning service (--server sends the problem's name, its "
+                       "limits, constraints, objective and environment, and --method); drop it, or solve here")
+    name = Path(args.problem).name.removesuffix(".toml")
+    if args.problem not in (name, f"{name}.toml", f"problems/{name}.toml") or \
+            (Path(args.problem).exists() and Path(args.problem).resolve() != find_problem(name).resolve()):
+        raise CLIError(f"--problem {args.problem}: a planning service plans problems by name; give a shipped "
+                       "problem's name or one the service was started with (--problem NAME)")
+    body: dict[str, Any] = {"problem": name, "methods": [args.method], "simulate": args.simulate}
+    for part, names in SENT.items():
+        values = {n: getattr(args, f"set_{n}") for n in names if getattr(args, f"set_{n}", None) is not None}
+        if part == "constraints" and args.add_bounds:
+            values["bounds"] = list(args.add_bounds)
+        if values:
+            body[part] = values["objective"] if part == "objective" else values
+    environment = {k[4:]: v for k, v in vars(args).items() if k.startswith("env_") and v is not None}
+    environment.update(dict(args.env or []))
+    for k, text in environment.items():
+        try:
+            values = [float(x) for x in text.split(",")]
+        except ValueError:
+            raise CLIError(f"--{k.replace('_', '-')} {text}: give a number or LO,HI") from None
+        environment[k] = values[0] if len(values) == 1 else values
+    if environment:
+        body["environment"] = environment
+    return body
+
+
+def solve_remote(args: argparse.Namespace) -> int:
+    """solve --server URL: the plan made by a planning service (judgeopt serve), printed as a local
+    solve prints it (--json: the service's object as it came)."""
+    import time
+
+    from judgeopt.planners.session import SolveReport
+    from judgeopt.serve.client import Client, ServiceError
+
+    t0 = time.perf_counter()
+    token = None
+    if args.token_file:
+        from judgeopt.serve.config import read_token
+
+        token = read_token(args.token_file)
+    body = remote_request(args)
+    try:
+        answer = Client(args.server, token).request("POST", "/v1/plan", body)
+    except ServiceError as exc:
+        if exc.answer.get("status") == "infeasible":
+            if args.json:
+                print(json.dumps(exc.answer))
+            else:
+                print(f"judgeopt solve: infeasible: {exc.answer['message']}", file=sys.stderr)
+            return ExitCode.INFEASIBLE
+        if exc.status is not None and 400 <= exc.status < 500:  # the request's to fix
+            raise CLIError(str(exc)) from None
+        raise
+    report = SolveReport.from_json(answer)
+    if args.json:
+        print(json.dumps(answer))
+    else:
+        print_report(report, simulate=args.simulate, explain=args.explain, suggest=args.suggest)
+        print(f"total {time.perf_counter() - t0:.1f} s (planned by {args.server})")
+    return solve_exit_code(report)
+
+
 def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
     """The calibration, ensemble and trust model named on the command line, checked before any
     model loads: one missing, a folder where a file belongs or a file of another kind is one line."""
@@ -198,6 +280,8 @@ def risk_line(r) -> str:
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
+    if args.server:
+        return solve_remote(args)
     from judgeopt.planners import session
     from judgeopt.planners.feasible import check as check_constraints
     from judgeopt.planners.loaded import Planners
@@ -586,6 +670,10 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    help=f"the failure rate a 'likely' may carry, as a {100 * CONFIDENCE:g} %% upper confidence bound on "
                    f"held-out replayed plans of the planner (default {RISK:g}); a plan above 0.5 but under the threshold "
                    "that risk sets is 'uncertain'")
+    s.add_argument("--server", metavar="URL", help="ask a planning service (`judgeopt serve`, e.g. "
+                   "http://127.0.0.1:8000) instead of planning here: the same table, no models loaded here; it is sent "
+                   "the problem by name, the limits, constraints, objective, environment and --method")
+    s.add_argument("--token-file", metavar="FILE", help="with --server: the service's bearer token (its first line)")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")
