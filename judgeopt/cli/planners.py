@@ -13,9 +13,10 @@ from typing import Any, Callable
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add_plugin_option, command_line, env_assignment,
                                  risk_rate,
                                  figure_path,
-                                 file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
+                                 file_path, number, out_option, positive, seed_option, threads_option, value_range)
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
 from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
+from judgeopt.field_text import field_type
 from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.verdict.risk import CONFIDENCE, RISK
 from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
@@ -23,38 +24,6 @@ from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, S
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
 
-
-
-def _number_or_name(text: str) -> float | str:
-    try:
-        return float(text)
-    except ValueError:
-        return text  # "free" or an environment variable; the problem checks which
-
-
-def _per_axis(convert):
-    """One value for every axis, or a comma-separated value per axis."""
-    def parse(text: str):
-        try:
-            values = [convert(v) for v in text.split(",")]
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a finite number or comma-separated numbers, got {text!r}") from None
-        return values[0] if len(values) == 1 else values
-    return parse
-
-
-def field_type(name: str):
-    """The argument type of the problem field `name` on the command line (its one-line errors); a
-    planning service checks the same field of a request with it (judgeopt.serve.schema)."""
-    if name in ("a_max", "jerk_max", "fdot_max"):
-        return _per_axis(float)  # inf allowed: no limit; the problem checks > 0
-    if name == "q_end":
-        return _per_axis(_number_or_name)
-    if name in AXIS_FIELDS + FORCE_FIELDS:
-        return _per_axis(finite)
-    if name in SECTIONS["models"] or str(FIELD_TYPES[name]) == "str":
-        return str
-    return int if str(FIELD_TYPES[name]) == "int" else float
 
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:

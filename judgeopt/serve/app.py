@@ -27,7 +27,7 @@ from judgeopt import __version__
 from judgeopt.errors import JudgeoptError
 from judgeopt.serve.config import ServeConfig
 from judgeopt.serve.metrics import Metrics
-from judgeopt.serve.pool import Pool, QueueFull
+from judgeopt.serve.pool import Pool
 from judgeopt.serve.request import InfeasibleRequest, prepare
 from judgeopt.serve.schema import ErrorAnswer, Health, PlanAnswer, PlanRequest, Ready, describe_errors
 from judgeopt.serve.worker import WorkerOptions
@@ -48,8 +48,9 @@ def error(status: int, message: str, headers: dict[str, str] | None = None,
 
 
 class Guard:
-    """Before the app: the token (constant-time compare), the body's declared size and type. After
-    it: one log line and the request's count and latency, by route template (never the raw path)."""
+    """Before the app: the token (constant-time compare), the body's size (declared, and counted as
+    it is read) and type. After it: one log line and the request's count and latency, by route
+    template (never the raw path)."""
 
     def __init__(self, app: Any, token: str | None, max_body_bytes: int, metrics: Metrics):
         self.app, self.token, self.max_body_bytes, self.metrics = app, token, max_body_bytes, metrics
@@ -64,11 +65,20 @@ class Guard:
                 status[0] = message["status"]
             await send(message)
 
+        received = [0]
+
+        async def receiving() -> dict:  # a body sent without its length (chunked) is counted as it comes
+            message = await receive()
+            received[0] += len(message.get("body", b""))
+            if received[0] > self.max_body_bytes:
+                raise HTTPException(413)  # the app's handler answers it
+            return message
+
         refused = self.refusal(scope)
         if refused is not None:
             await refused(scope, receive, sending)
         else:
-            await self.app(scope, receive, sending)
+            await self.app(scope, receiving, sending)
         route = getattr(scope.get("route"), "path", None) or "unmatched"
         seconds = time.perf_counter() - t0
         self.metrics.answered(route, status[0], seconds)
@@ -98,7 +108,7 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
     """The app for `config`, planning `problems` (request.problem_files), its workers started and
     stopped with it; every route but /v1/health needs `token` where one is given."""
     pool = Pool(config.workers, config.queue, WorkerOptions(problems, config.models_dir, config.preload, config.cache),
-                config.kill_after_s)
+                config.kill_after_s, config.retry_after_s)
     metrics = Metrics(lambda: pool.depth, lambda: pool.busy, lambda: pool.ready, lambda: pool.restarts)
 
     @contextlib.asynccontextmanager
@@ -108,7 +118,6 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
         await pool.close()
 
     app = FastAPI(title="judgeopt planning service", version=__version__, lifespan=lifespan,
-                  max_body_size=config.max_body_bytes,
                   description="Plans contact-rich motions against a learned success judge: POST a request, get the "
                               "object `judgeopt solve --json` prints. docs/guides/service.md tells how to run and call it.")
     app.add_middleware(Guard, token=token, max_body_bytes=config.max_body_bytes, metrics=metrics)
@@ -148,14 +157,10 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
             return error(422, str(exc), fields=exc.answer)
         except JudgeoptError as exc:
             return error(422, str(exc))
-        try:
-            answer = await pool.run(request.model_dump(), timeout)
-        except QueueFull:
-            return error(503, f"every worker is busy and {pool.depth} requests wait: send it again in "
-                              f"{config.retry_after_s} s", {"Retry-After": str(config.retry_after_s)})
+        answer = await pool.run(request.model_dump(), timeout)
         for planner, seconds in answer.timings.items():
             metrics.planner.labels(planner).observe(seconds)
-        return Response(answer.body, status_code=answer.status, media_type="application/json")
+        return Response(answer.body, status_code=answer.status, headers=answer.headers, media_type="application/json")
 
     @app.get("/v1/health", response_model=Health, summary="the server answers")
     async def health() -> Health:

@@ -16,19 +16,17 @@ import socket
 import urllib.parse
 from typing import Any, Mapping, Sequence
 
-from judgeopt.errors import ExitCode, JudgeoptError
+from judgeopt.errors import Missing
 
 #: seconds a Client waits for an answer beyond the request's own deadline (the server answers 504 at
 #: the deadline: this only covers the transfer)
 MARGIN_S = 5.0
 
 
-class ServiceError(JudgeoptError):
+class ServiceError(Missing, RuntimeError):
     """A service that answered with an error (`status`, its one-line `message`, the whole `answer`;
     `retry_after` seconds where it said when to try again), or that could not be reached
     (`status` None). Exit code 7 on the command line: the service, not the request, is missing."""
-
-    exit_code = ExitCode.MISSING
 
     def __init__(self, message: str, status: int | None = None, answer: dict | None = None,
                  retry_after: float | None = None):

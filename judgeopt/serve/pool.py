@@ -13,6 +13,7 @@ from __future__ import annotations
 import asyncio
 import collections
 import itertools
+import json
 import multiprocessing
 import signal
 import time
@@ -29,10 +30,6 @@ log = service_log()
 RESTART_FIRST_S, RESTART_MAX_S = 0.5, 30.0
 
 
-class QueueFull(Exception):
-    """Every worker is busy and the queue holds its most: the request is refused (503)."""
-
-
 @dataclass
 class Answer:
     """What a request gets: its HTTP status, the JSON body, and each planner's solve time."""
@@ -40,12 +37,11 @@ class Answer:
     status: int
     body: bytes
     timings: dict[str, float] = field(default_factory=dict)
+    headers: dict[str, str] = field(default_factory=dict)
 
 
-def error(status: int, message: str) -> Answer:
-    import json
-
-    return Answer(status, json.dumps({"error": message}).encode())
+def error(status: int, message: str, headers: dict[str, str] | None = None) -> Answer:
+    return Answer(status, json.dumps({"error": message}).encode(), headers=headers or {})
 
 
 @dataclass
@@ -83,10 +79,12 @@ def how_it_ended(exitcode: int | None) -> str:
 
 
 class Pool:
-    """`size` workers behind a queue of at most `queue` waiting requests."""
+    """`size` workers behind a queue of at most `queue` waiting requests; a request beyond them is
+    told to come back in `retry_after_s`."""
 
-    def __init__(self, size: int, queue: int, options: WorkerOptions, kill_after_s: float):
-        self.size, self.queue_size, self.options, self.kill_after_s = size, queue, options, kill_after_s
+    def __init__(self, size: int, queue: int, options: WorkerOptions, kill_after_s: float, retry_after_s: int):
+        self.size, self.queue_size, self.options = size, queue, options
+        self.kill_after_s, self.retry_after_s = kill_after_s, retry_after_s
         self.workers: list[Worker] = []
         self.waiting: collections.deque[Job] = collections.deque()
         self.ids = itertools.count(1)
@@ -156,10 +154,11 @@ class Pool:
 
     # -- requests --------------------------------------------------------------------------
     async def run(self, request: dict[str, Any], timeout_s: float) -> Answer:
-        """Plan `request` on the next free worker within `timeout_s` of now; QueueFull where the
-        queue holds its most."""
+        """Plan `request` on the next free worker within `timeout_s` of now; a 503 at once where
+        every worker is busy and the queue holds its most."""
         if len(self.waiting) >= self.queue_size and not self.idle():
-            raise QueueFull
+            return error(503, f"every worker is busy and {len(self.waiting)} requests wait: send it again in "
+                              f"{self.retry_after_s} s", {"Retry-After": str(self.retry_after_s)})
         loop = asyncio.get_running_loop()
         job = Job(next(self.ids), request, loop.time(), loop.create_future())
         self.waiting.append(job)

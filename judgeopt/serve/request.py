@@ -17,13 +17,13 @@ from judgeopt.planners.problem import Problem, ProblemError, load_problem
 from judgeopt.serve.schema import PlanRequest, as_text
 
 
-class InfeasibleRequest(Infeasible):
+class InfeasibleRequest(Infeasible, ValueError):
     """Limits that admit no plan, found before any solver runs; `answer` is the object `judgeopt
     solve --json` prints for them (session.infeasible_json)."""
 
-    def __init__(self, answer: dict[str, Any]):
-        super().__init__(answer["message"])
-        self.answer = answer
+    def __init__(self, message: str, answer: dict[str, Any] | None = None):
+        super().__init__(message)
+        self.answer = answer or {}
 
 
 @dataclass(frozen=True)
@@ -107,7 +107,7 @@ def prepare(request: PlanRequest, problems: Mapping[str, Path]) -> Prepared:
     try:
         check(problem, env)
     except ProblemError as exc:
-        raise InfeasibleRequest(infeasible_json(problem, env, exc)) from None
+        raise InfeasibleRequest(str(exc), infeasible_json(problem, env, exc)) from None
     ranges = {k: v for k, v in problem.environment.items() if k in request.environment and isinstance(v, tuple)}
     return Prepared(problem, methods, ranges, request.simulate)
 

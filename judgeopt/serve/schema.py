@@ -4,7 +4,7 @@ so what is documented is what is checked.
 A request names a problem (never a path), and changes only what the command line changes: the
 limits, the environment, the [constraints], the planners and the objective. Every model refuses
 a field it does not know (extra="forbid"), and every value is checked by the command line's own
-argument type for its field (judgeopt.cli.planners.field_type), so a bad value gets the message the
+argument type for its field (judgeopt.field_text), so a bad value gets the message the
 command line gives; what a value means (a limit below its partner, an infeasible set) is checked
 where the command line checks it, by the problem (judgeopt.serve.request).
 """
@@ -16,7 +16,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import AfterValidator, BaseModel, ConfigDict, Field, Strict, StringConstraints, create_model
 
-from judgeopt.cli.planners import field_type
+from judgeopt.field_text import field_type
 from judgeopt.planners.problem import FIELD_HELP, LIMIT_NAMES, OBJECTIVES, SECTIONS
 
 #: the most values a per-axis field, the environment, the bounds and the planners may hold: a
@@ -68,9 +68,9 @@ Constraints = fields_model("Constraints", SECTIONS["constraints"], "The direct s
 
 def example_request() -> dict[str, Any]:
     """A request in the documentation, built from the default task's own names."""
-    from judgeopt.cli.examples import example_variable
+    from judgeopt.tasks import DEFAULT_TASK, get_task
 
-    v = example_variable()
+    v = get_task(DEFAULT_TASK).env_vars[0]
     return {"problem": "paper_sim", "limits": {"qdot_max": 0.4}, "environment": {v.name: v.default},
             "methods": ["default"], "simulate": False, "timeout_s": 5.0}
 
@@ -92,7 +92,7 @@ class PlanRequest(BaseModel):
     methods: list[Name] = Field(default_factory=lambda: ["default"], min_length=1, max_length=MAX_METHODS,
                                 description="one group (default, all) or planners by name, as solve --method")
     objective: Literal[OBJECTIVES] | None = Field(None, description=FIELD_HELP["objective"])  # type: ignore[valid-type]
-    simulate: bool = Field(False, description="replay each plan in the task's simulated scene (about 2 s)")
+    simulate: Annotated[bool, Strict()] = Field(False, description="replay each plan in the task's simulated scene (about 2 s)")
     timeout_s: Annotated[float, Strict(), Field(gt=0)] | None = Field(
         None, description="the deadline in seconds from arrival (default and largest: the server's --timeout and "
                           "--max-timeout); past it the answer is 504, saying what was cut short")
@@ -160,6 +160,9 @@ def describe_errors(errors: list[dict[str, Any]]) -> str:
     if first["type"] == "json_invalid":
         return f"the body is not valid JSON: {first.get('ctx', {}).get('error', first['msg'])}; send one JSON object"
     at = where(first["loc"])
+    # of a union's members' errors for the same value, the one about its content, not its type
+    # (a list too long, not "not a number")
+    first = next((e for e in errors if where(e["loc"]) == at and not e["type"].endswith("_type")), first)
     path = ".".join(at) or "the body"
     if first["type"] == "extra_forbidden":
         model = MODELS.get(tuple(at[:-1]))

@@ -123,10 +123,8 @@ class Planning:
             return self.plan(request, stage)
         except JudgeoptError as exc:
             return STATUS_OF_EXIT.get(int(exc.exit_code), 500), finite_json({"error": str(exc)}), {}
-        except ModuleNotFoundError as exc:
-            from judgeopt.cli.common import missing_extra
-
-            return 500, finite_json({"error": f"the server cannot do this: {missing_extra(exc) or exc}"}), {}
+        except ModuleNotFoundError as exc:  # an optional extra the server lacks (the simulator's, for simulate)
+            return 500, finite_json({"error": f"the server cannot do this: {exc.name} is not installed there"}), {}
         except Exception as exc:  # a bug: the client learns that much, the log the rest
             from judgeopt.serve.log import one_line, service_log
 
