@@ -37,7 +37,11 @@ log = service_log()
 
 #: the routes that answer without the token: a load balancer's liveness probe
 OPEN_ROUTES = ("/v1/health",)
-ROUTES = "POST /v1/plan, GET /v1/health, /v1/ready, /v1/models, /metrics, /openapi.json, /docs"
+#: what the service answers (named in a 404), and what a log line or a metric may name
+PATHS = ("/v1/plan", "/v1/health", "/v1/ready", "/v1/models", "/metrics", "/openapi.json", "/docs")
+ROUTES = f"POST /v1/plan, GET {', '.join(PATHS[1:])}"
+METHODS = ("GET", "POST", "HEAD", "PUT", "PATCH", "DELETE", "OPTIONS")
+INTERNAL = "internal error; the server's log has the traceback: please report it"
 ERRORS = {code: {"model": ErrorAnswer} for code in (400, 401, 413, 415, 422, 500, 503, 504)}
 
 
@@ -58,7 +62,7 @@ class Guard:
     async def __call__(self, scope: dict, receive: Any, send: Any) -> None:
         if scope["type"] != "http":
             return await self.app(scope, receive, send)
-        t0, status = time.perf_counter(), [500]
+        t0, status = time.perf_counter(), [0]
 
         async def sending(message: dict) -> None:
             if message["type"] == "http.response.start":
@@ -75,14 +79,17 @@ class Guard:
             return message
 
         refused = self.refusal(scope)
-        if refused is not None:
-            await refused(scope, receive, sending)
-        else:
-            await self.app(scope, receiving, sending)
-        route = getattr(scope.get("route"), "path", None) or "unmatched"
+        try:
+            await (refused or self.app)(scope, receiving if refused is None else receive, sending)
+        except Exception:  # a bug: one line in the log (never the request's data as lines), a 500 to the client
+            log.error("internal error: %s", one_line(traceback.format_exc()))
+            if not status[0]:
+                await error(500, INTERNAL)(scope, receive, sending)
+        path = getattr(scope.get("route"), "path", None) or scope["path"]
+        route = path if path in PATHS else "unmatched"
         seconds = time.perf_counter() - t0
         self.metrics.answered(route, status[0], seconds)
-        method = scope["method"] if scope["method"].isalpha() and len(scope["method"]) <= 10 else "?"
+        method = scope["method"] if scope["method"] in METHODS else "other"
         log.info("%s %s %d %.1f ms", method, route, status[0], 1e3 * seconds)
 
     def refusal(self, scope: dict) -> Response | None:
@@ -135,11 +142,6 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
                    413: f"the body is over the {config.max_body_bytes} bytes this server takes"}.get(exc.status_code,
                                                                                                       str(exc.detail))
         return error(exc.status_code, message, getattr(exc, "headers", None))
-
-    @app.exception_handler(Exception)
-    async def internal(request: Request, exc: Exception) -> JSONResponse:
-        log.error("internal error: %s", one_line(traceback.format_exc()))
-        return error(500, f"internal error ({type(exc).__name__}); the server's log has the traceback: please report it")
 
     @app.post("/v1/plan", response_model=None, dependencies=bearer, responses={200: {"model": PlanAnswer}, **ERRORS},
               summary="plan a motion", description="The answer is the object `judgeopt solve --json` prints for the "

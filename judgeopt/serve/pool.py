@@ -48,7 +48,6 @@ def error(status: int, message: str, headers: dict[str, str] | None = None) -> A
 class Job:
     id: int
     request: dict[str, Any]
-    arrived: float
     future: asyncio.Future
     stage: str = "waiting in the queue"
 
@@ -160,7 +159,7 @@ class Pool:
             return error(503, f"every worker is busy and {len(self.waiting)} requests wait: send it again in "
                               f"{self.retry_after_s} s", {"Retry-After": str(self.retry_after_s)})
         loop = asyncio.get_running_loop()
-        job = Job(next(self.ids), request, loop.time(), loop.create_future())
+        job = Job(next(self.ids), request, loop.create_future())
         self.waiting.append(job)
         self.dispatch()
         try:

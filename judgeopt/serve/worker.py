@@ -173,5 +173,8 @@ def run(conn: Any, options: WorkerOptions) -> None:
         if message is None:
             return
         _, job, request = message
-        status, body, timings = planning.answer(request, lambda text, job=job: conn.send(("stage", job, text)))
-        conn.send(("done", job, status, body, timings))
+        try:
+            status, body, timings = planning.answer(request, lambda text, job=job: conn.send(("stage", job, text)))
+            conn.send(("done", job, status, body, timings))
+        except OSError:  # the server is gone while this was planned
+            return

@@ -83,3 +83,31 @@ def test_nothing_a_request_sends_reaches_the_log(service):
     log = service.log.read_text()
     assert "GET /v1/health 200" in log and "POST /v1/plan 422" in log
     assert marker not in log
+
+
+def test_a_bug_is_a_500_with_one_line_and_the_request_is_counted():
+    """The app raising (a bug) reaches the client as a one-line 500, never a traceback."""
+    import asyncio
+    import json
+
+    from judgeopt.serve.app import Guard
+    from judgeopt.serve.metrics import Metrics
+
+    async def broken(scope, receive, send):
+        raise KeyError("a bug\nwith a second line")
+
+    sent: list[dict] = []
+
+    async def send(message):
+        sent.append(message)
+
+    async def receive():
+        return {"type": "http.request", "body": b"", "more_body": False}
+
+    metrics = Metrics(lambda: 0, lambda: 0, lambda: 0, lambda: 0)
+    scope = {"type": "http", "method": "GET", "path": "/v1/models", "headers": []}
+    asyncio.run(Guard(broken, None, 100, metrics)(scope, receive, send))
+    assert sent[0]["status"] == 500
+    body = json.loads(b"".join(m.get("body", b"") for m in sent[1:]))
+    assert body["error"].startswith("internal error") and "\n" not in body["error"] and "a bug" not in body["error"]
+    assert b'judgeopt_requests_total{route="/v1/models",status="500"} 1.0' in metrics.text()
