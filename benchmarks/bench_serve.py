@@ -10,7 +10,9 @@ its level's count is reached. Memory is the server's and its workers' resident s
     python benchmarks/bench_serve.py [--levels 1 2 8] [--requests 300 300 400] [--soak 1000]
                                      [--memory-at 500 2000] [--simulate 20]
 
-Prints one row per level side by side, then the memory and the issue's targets, met or missed.
+Prints one row per level side by side (with the CPU time the server and its workers spent per
+request: what bounds the throughput where the cores are shared), then the memory and the issue's
+targets, met or missed.
 """
 
 from __future__ import annotations
@@ -31,6 +33,12 @@ sys.path.insert(0, str(REPO))
 from judgeopt.serve.client import Client, ServiceError  # noqa: E402
 
 
+def cpu_s(pid: int) -> float:
+    """The CPU time (user + system) a process has used so far."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def rss_mb(pid: int) -> float:
     for line in Path(f"/proc/{pid}/status").read_text().splitlines():
         if line.startswith("VmRSS:"):
@@ -45,8 +53,15 @@ class Run:
         self.url, self.server, self.marks = url, server, sorted(marks)
         self.total, self.lock, self.memory = 0, threading.Lock(), {}
 
+    def workers(self) -> list[int]:
+        return [w["pid"] for w in Client(self.url).health()["workers"]]
+
+    def cpu_now(self) -> tuple[float, float]:
+        """CPU seconds used so far by the server and by its workers."""
+        return cpu_s(self.server.pid), sum(cpu_s(p) for p in self.workers())
+
     def memory_now(self) -> dict[str, float]:
-        workers = [w["pid"] for w in Client(self.url).health()["workers"]]
+        workers = self.workers()
         return {"server": rss_mb(self.server.pid), "workers": sum(rss_mb(p) for p in workers), "n_workers": len(workers)}
 
     def count(self) -> None:
@@ -81,14 +96,16 @@ class Run:
             c.close()
 
         threads = [threading.Thread(target=client) for _ in range(clients)]
+        cpu0 = self.cpu_now()
         t0 = time.perf_counter()
         for t in threads:
             t.start()
         for t in threads:
             t.join()
         wall = time.perf_counter() - t0
+        cpu = [b - a for a, b in zip(cpu0, self.cpu_now())]
         return {"clients": clients, "n": requests, "latencies": latencies, "failures": failures, "wall": wall,
-                "planner": planner}
+                "planner": planner, "cpu_ms": [1e3 * c / max(requests, 1) for c in cpu]}
 
 
 def percentile(xs: list[float], q: float) -> float:
@@ -147,7 +164,7 @@ def main() -> None:
           f"{load[0]:.2f}), method {args.method} without simulation; warm-up {len(warm['latencies'])} requests; "
           f"server exit code on SIGTERM {code}")
     print(f"{'clients':>7} {'requests':>8} {'failed':>6} {'p50 ms':>8} {'p95 ms':>8} {'p99 ms':>8} {'req/s':>7} "
-          f"{'x 1 client':>10} {'planner p50 ms':>14}")
+          f"{'x 1 client':>10} {'planner p50 ms':>14} {'CPU ms/req: server':>18} {'workers':>7}")
     base = None
     for r in rows + ([soak] if args.soak else []) + ([sim] if sim else []):
         lat, rate = r["latencies"], len(r["latencies"]) / r["wall"]
@@ -155,7 +172,8 @@ def main() -> None:
         label = "sim" if r is sim else "soak" if args.soak and r is soak else ""
         print(f"{r['clients']:>7} {r['n']:>8} {len(r['failures']):>6} {1e3 * percentile(lat, 50):>8.1f} "
               f"{1e3 * percentile(lat, 95):>8.1f} {1e3 * percentile(lat, 99):>8.1f} {rate:>7.1f} {rate / base[0]:>10.2f} "
-              f"{1e3 * statistics.median(r['planner']) if r['planner'] else float('nan'):>14.1f} {label}")
+              f"{1e3 * statistics.median(r['planner']) if r['planner'] else float('nan'):>14.1f} "
+              f"{r['cpu_ms'][0]:>18.1f} {r['cpu_ms'][1]:>7.1f} {label}")
     for mark, m in sorted(run.memory.items()):
         print(f"after {mark} requests: server {m['server']:.0f} MB + workers {m['workers']:.0f} MB = "
               f"{m['server'] + m['workers']:.0f} MB resident")

@@ -92,7 +92,7 @@ class PlanRequest(BaseModel):
     methods: list[Name] = Field(default_factory=lambda: ["default"], min_length=1, max_length=MAX_METHODS,
                                 description="one group (default, all) or planners by name, as solve --method")
     objective: Literal[OBJECTIVES] | None = Field(None, description=FIELD_HELP["objective"])  # type: ignore[valid-type]
-    simulate: Annotated[bool, Strict()] = Field(False, description="replay each plan in the task's simulated scene (about 2 s)")
+    simulate: Annotated[bool, Strict()] = Field(False, description="replay each plan in the task's simulated scene (tenths of a second more)")
     timeout_s: Annotated[float, Strict(), Field(gt=0)] | None = Field(
         None, description="the deadline in seconds from arrival (default and largest: the server's --timeout and "
                           "--max-timeout); past it the answer is 504, saying what was cut short")

@@ -123,3 +123,19 @@ def test_solve_server_refuses_what_it_does_not_send(service, capsys):
     assert "--plot: not sent to a planning service" in capsys.readouterr().err
     assert main(["solve", "--server", service.url, "--p-target", "0.9"]) == 2
     assert "--p-target" in capsys.readouterr().err
+
+
+def test_solve_server_imports_no_torch(service, tmp_path):
+    """The client's side of a plan loads no model and never imports torch (seconds on its own)."""
+    import subprocess
+    import sys
+
+    from judgeopt.files import REPO
+
+    (tmp_path / "token").write_text(TOKEN)
+    code = ("import sys; from judgeopt.cli.main import main; "
+            f"rc = main(['solve', '--qdot-max', '0.4', '--no-simulate', '--server', {service.url!r}, "
+            f"'--token-file', {str(tmp_path / 'token')!r}]); print('torch' in sys.modules, rc)")
+    r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert r.stdout.splitlines()[-1] == "False 0", r.stdout + r.stderr
+    assert "direct" in r.stdout
