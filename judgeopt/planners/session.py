@@ -167,8 +167,9 @@ class SolveReport(ReportViews):
         results = [PlanResult.from_json(r, problem.dt, problem.task) for r in d["results"]]
         answered = AnsweredPlanners(list(d["notes"]), d["judge"], {"weights_sha256": d["judge_sha256"]},
                                     d["generator"])
-        return cls(problem, dict(d["environment"]), answered, results,
-                   suggestions=[Suggestion.from_json(x) for x in d["suggestions"]])
+        env = dict(d["environment"])
+        world = {k: v for k, v in problem.world_env(env).items() if k not in env}  # as `solve` sets it
+        return cls(problem, env, answered, results, world, [Suggestion.from_json(x) for x in d["suggestions"]])
 
 
 @dataclass

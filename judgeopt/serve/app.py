@@ -194,5 +194,4 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
 
         return Response(metrics.text(), media_type=CONTENT_TYPE_LATEST)
 
-    app.state.pool = pool
     return app

@@ -139,3 +139,14 @@ def test_solve_server_imports_no_torch(service, tmp_path):
     r = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
     assert r.stdout.splitlines()[-1] == "False 0", r.stdout + r.stderr
     assert "direct" in r.stdout
+
+
+@pytest.mark.parametrize("case", ["unlikely", "range"])
+def test_a_report_read_back_from_its_json_writes_the_same_json(case, capsys):
+    """What `solve --server` prints from: the answer read back (plans, verdicts, suggestions)."""
+    from judgeopt.planners.session import SolveReport
+
+    local = LOCAL.get(case) or solve_json(CASES[case][1], capsys)
+    report = SolveReport.from_json(local)
+    assert report.verdict == local["verdict"] and len(report.suggestions) == len(local["suggestions"])
+    assert_same(report.to_json(), local)
