@@ -154,7 +154,9 @@ class Pool:
     # -- requests --------------------------------------------------------------------------
     async def run(self, request: dict[str, Any], timeout_s: float) -> Answer:
         """Plan `request` on the next free worker within `timeout_s` of now; a 503 at once where
-        every worker is busy and the queue holds its most."""
+        every worker is busy and the queue holds its most, or where no worker can load its models."""
+        if self.failure:
+            return error(503, self.failure)
         if len(self.waiting) >= self.queue_size and not self.idle():
             return error(503, f"every worker is busy and {len(self.waiting)} requests wait: send it again in "
                               f"{self.retry_after_s} s", {"Retry-After": str(self.retry_after_s)})

@@ -19,12 +19,13 @@ from judgeopt.serve.config import ServeConfig, read_token
 
 
 def bind(host: str, port: int) -> socket.socket:
-    """A socket bound to host:port (port 0: a free one), or one line saying why not."""
+    """A socket listening on host:port (port 0: a free one), or one line saying why not."""
     try:
         family, kind, proto, _, address = socket.getaddrinfo(host, port, type=socket.SOCK_STREAM)[0]
         sock = socket.socket(family, kind, proto)
         sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         sock.bind(address)
+        sock.listen(2048)  # connections wait in the backlog from now on, not refused until uvicorn starts
     except OSError as exc:
         raise UsageError(f"--host {host} --port {port}: cannot listen there ({exc.strerror or exc}); give another "
                          "--port (0: a free one) or --host") from None
