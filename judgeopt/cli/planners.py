@@ -19,8 +19,7 @@ from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
 from judgeopt.field_text import field_type
 from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.verdict.risk import CONFIDENCE, RISK
-from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
-                                       load_problem)
+from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
 

@@ -31,7 +31,7 @@ from judgeopt.serve.pool import Pool
 from judgeopt.serve.request import InfeasibleRequest, prepare
 from judgeopt.serve.schema import ErrorAnswer, Health, PlanAnswer, PlanRequest, Ready, describe_errors
 from judgeopt.serve.worker import WorkerOptions
-from judgeopt.serve.log import one_line, service_log
+from judgeopt.serve.log import INTERNAL_ERROR, one_line, service_log
 
 log = service_log()
 
@@ -41,7 +41,6 @@ OPEN_ROUTES = ("/v1/health",)
 PATHS = ("/v1/plan", "/v1/health", "/v1/ready", "/v1/models", "/metrics", "/openapi.json", "/docs")
 ROUTES = f"POST /v1/plan, GET {', '.join(PATHS[1:])}"
 METHODS = ("GET", "POST", "HEAD", "PUT", "PATCH", "DELETE", "OPTIONS")
-INTERNAL = "internal error; the server's log has the traceback: please report it"
 ERRORS = {code: {"model": ErrorAnswer} for code in (400, 401, 413, 415, 422, 500, 503, 504)}
 
 
@@ -84,7 +83,7 @@ class Guard:
         except Exception:  # a bug: one line in the log (never the request's data as lines), a 500 to the client
             log.error("internal error: %s", one_line(traceback.format_exc()))
             if not status[0]:
-                await error(500, INTERNAL)(scope, receive, sending)
+                await error(500, INTERNAL_ERROR)(scope, receive, sending)
         path = getattr(scope.get("route"), "path", None) or scope["path"]
         route = path if path in PATHS else "unmatched"
         seconds = time.perf_counter() - t0

@@ -9,6 +9,8 @@ import logging
 import sys
 
 NAME = "judgeopt.serve"
+#: what a client is told of a bug (its traceback goes to the log only)
+INTERNAL_ERROR = "internal error; the server's log has the traceback: please report it"
 
 
 def service_log() -> logging.Logger:

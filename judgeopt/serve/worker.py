@@ -24,6 +24,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
 
+from judgeopt.errors import JudgeoptError
+from judgeopt.serve.log import INTERNAL_ERROR, one_line, service_log
+
 
 #: HTTP status by judgeopt's exit code: a request the planners refuse is the client's to fix (422);
 #: a missing extra or library is the server's (500)
@@ -117,20 +120,15 @@ class Planning:
     def answer(self, request: dict[str, Any], stage: Callable[[str], None]) -> tuple[int, bytes, dict[str, float]]:
         """`plan`, with an error the user can act on as its one line (a 4xx), any other as a 500
         whose traceback goes to the server's log, never to the client."""
-        from judgeopt.errors import JudgeoptError
-
         try:
             return self.plan(request, stage)
         except JudgeoptError as exc:
             return STATUS_OF_EXIT.get(int(exc.exit_code), 500), finite_json({"error": str(exc)}), {}
         except ModuleNotFoundError as exc:  # an optional extra the server lacks (the simulator's, for simulate)
             return 500, finite_json({"error": f"the server cannot do this: {exc.name} is not installed there"}), {}
-        except Exception as exc:  # a bug: the client learns that much, the log the rest
-            from judgeopt.serve.log import one_line, service_log
-
+        except Exception:  # a bug: the client learns that much, the log the rest
             service_log().error("internal error in worker %d: %s", os.getpid(), one_line(traceback.format_exc()))
-            return 500, finite_json({"error": f"internal error ({type(exc).__name__}); the server's log has the "
-                                              "traceback: please report it"}), {}
+            return 500, finite_json({"error": INTERNAL_ERROR}), {}
 
     def preload(self) -> dict[str, Any]:
         """Load the problems named to preload (default planners, no simulation) and plan once for

@@ -28,15 +28,16 @@ CASES = {
                     ["--a-max", "2", "--bound", "f:0:20@0:0.4"]),
     "unlikely": (SLOW, ["--f-max", "12", "--mu", "3"]),
     "infeasible": ({"limits": {"qdot_max": 0.1}}, ["--qdot-max", "0.1"]),
+    "simulated": ({**QUICK, "simulate": True}, ["--qdot-max", "0.4", "--simulate"]),
 }
 #: what differs between two runs of the same solve: how long it took
 TIMING = {"solve_time_s"}
 
 
 def solve_json(argv: list[str], capsys) -> dict:
-    """`judgeopt solve ... --no-simulate --json`, in this process: the object it prints."""
+    """`judgeopt solve ... --json` (--no-simulate unless --simulate), in this process: the object it prints."""
     capsys.readouterr()
-    main(["solve", *argv, "--no-simulate", "--json"])
+    main(["solve", *argv, *([] if "--simulate" in argv else ["--no-simulate"]), "--json"])
     return json.loads(capsys.readouterr().out)
 
 
@@ -70,13 +71,14 @@ def test_the_answer_is_what_solve_json_prints(service, case, capsys):
     else:
         assert answer.status == 200, answer.text
         assert len(local["results"]) >= 1 and local["results"][0]["t"]  # a plan is compared, not an empty list
+        assert (local["results"][0]["simulated_success"] is None) == (not request.get("simulate"))
     assert_same(answer.body, local)
 
 
 def test_a_worker_that_planned_others_gives_the_same_answer_again(service, capsys):
     """Its planners are reused (loaded once per problem and limits): nothing of one request leaks
     into the next (notes, warm starts, the range's grid)."""
-    for case in ("range", "limit", "range", "environment and planner"):
+    for case in ("range", "limit", "simulated", "range", "environment and planner", "simulated"):
         local = LOCAL.get(case) or solve_json(CASES[case][1], capsys)
         assert_same(service.plan(CASES[case][0]).body, local, case)
 
