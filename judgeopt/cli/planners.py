@@ -149,19 +149,21 @@ def remote_request(args: argparse.Namespace) -> dict[str, Any]:
              "--simulate-env": args.simulate_env, "--warm-start": args.warm_start != "generator",
              "--env-case": args.range_case != "worst", "--no-suggest": not args.suggest, "--risk": args.risk != RISK,
              "--casadi-backend": args.casadi_backend != "auto"}
-    sent = {n for names in SENT.values() for n in names}
+    sent = {"robot", *(n for names in SENT.values() for n in names)}
     local.update({f"--{k[4:].replace('_', '-')}": v for k, v in vars(args).items()
                   if k.startswith("set_") and k[4:] not in sent and v is not None})
     given = [flag for flag, v in local.items() if v]
     if given:
-        raise CLIError(f"{', '.join(given)}: not sent to a planning service (--server sends the problem's name, its "
-                       "limits, constraints, objective and environment, and --method); drop it, or solve here")
+        raise CLIError(f"{', '.join(given)}: not sent to a planning service (--server sends the problem's name, the "
+                       "robot, limits, constraints, objective and environment, and --method); drop it, or solve here")
     name = Path(args.problem).name.removesuffix(".toml")
     if args.problem not in (name, f"{name}.toml", f"problems/{name}.toml") or \
             (Path(args.problem).exists() and Path(args.problem).resolve() != find_problem(name).resolve()):
         raise CLIError(f"--problem {args.problem}: a planning service plans problems by name; give a shipped "
                        "problem's name or one the service was started with (--problem NAME)")
     body: dict[str, Any] = {"problem": name, "methods": [args.method], "simulate": args.simulate}
+    if args.set_robot is not None:
+        body["robot"] = args.set_robot
     for part, names in SENT.items():
         values = {n: getattr(args, f"set_{n}") for n in names if getattr(args, f"set_{n}", None) is not None}
         if part == "constraints" and args.add_bounds:

@@ -180,11 +180,13 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
     @app.get("/v1/models", dependencies=bearer, summary="the problems, planners and models this server plans with")
     async def models() -> dict[str, Any]:
         from judgeopt.planners.base import GROUPS, REGISTRY
+        from judgeopt.robots import robot_names
         from judgeopt.serve.request import base_problem
 
         return {"problems": [{"name": name, "task": base_problem(p).task, "description": base_problem(p).description}
                              for name, p in problems.items()],
                 "methods": {"groups": list(GROUPS), "planners": {n: s.description for n, s in REGISTRY.items()}},
+                "robots": list(robot_names()),
                 "loaded": pool.loaded}
 
     @app.get("/metrics", dependencies=bearer, response_class=Response, summary="Prometheus' text format")

@@ -93,8 +93,9 @@ def prepare(request: PlanRequest, problems: Mapping[str, Path]) -> Prepared:
     values.update({k: v for k, v in request.constraints.model_dump().items() if v is not None})
     if request.constraints.bounds is not None:  # as --bound: added to the file's
         values["bounds"] = [*problem.bounds, *request.constraints.bounds]
-    if request.objective is not None:
-        values["objective"] = request.objective
+    for name in ("objective", "robot"):
+        if getattr(request, name) is not None:
+            values[name] = getattr(request, name)
     names = get_task(problem.task).env_names
     for name, value in request.environment.items():
         if name not in names:

@@ -83,6 +83,8 @@ class PlanRequest(BaseModel):
 
     problem: Name = Field("paper_sim", description="a problem by name: a shipped one (GET /v1/models lists them) or "
                           "one the server was started with (--problem FILE); never a path")
+    robot: Name | None = Field(None, description="the arm that runs the plan (GET /v1/models lists them; left out: "
+                               "the problem's), as solve --robot: its joint limits held, its simulation")
     limits: Limits = Field(default_factory=Limits)  # type: ignore[valid-type]
     environment: dict[Name, Number | Annotated[list[Number], Field(min_length=2, max_length=2)]] = Field(
         default_factory=dict, max_length=MAX_ENVIRONMENT,

@@ -65,7 +65,7 @@ class Planning:
     def __init__(self, options: WorkerOptions):
         self.options = options
         self.loaded: collections.OrderedDict[tuple, Any] = collections.OrderedDict()
-        self.simulators: dict[str, Any] = {}
+        self.simulators: dict[tuple[str, str], Any] = {}
 
     def planners(self, prepared: Any, stage: Callable[[str], None]) -> Any:
         """The planners for a prepared request, loaded as `judgeopt solve` loads them (so the
@@ -93,13 +93,14 @@ class Planning:
         self.loaded.move_to_end(key)
         return dataclasses.replace(planners, notes=list(planners.notes))
 
-    def simulator(self, task: str) -> Any:
-        """The task's simulator, made once per worker."""
-        if task not in self.simulators:
+    def simulator(self, task: str, robot: str) -> Any:
+        """The task's simulator with arm `robot`, made once per worker (as solve makes it)."""
+        if (task, robot) not in self.simulators:
             from judgeopt.tasks import get_task
 
-            self.simulators[task] = get_task(task).simulator()
-        return self.simulators[task]
+            t = get_task(task)
+            self.simulators[task, robot] = t.simulator(t.robot_settings(robot))
+        return self.simulators[task, robot]
 
     def plan(self, request: dict[str, Any], stage: Callable[[str], None]) -> tuple[int, bytes, dict[str, float]]:
         """(HTTP status, the answer as JSON, each planner's solve time) for one request."""
@@ -112,7 +113,7 @@ class Planning:
         except InfeasibleRequest as exc:
             return 422, finite_json({"error": str(exc), **exc.answer}), {}
         planners = self.planners(prepared, stage)
-        sim = self.simulator(prepared.problem.task) if prepared.simulate else None
+        sim = self.simulator(prepared.problem.task, prepared.problem.robot) if prepared.simulate else None
         stage(f"planning with {', '.join(planners.methods)}" + (" and replaying the plans in simulation" if sim else ""))
         report = session.solve(planners, simulator=sim, ranges=prepared.ranges)
         return 200, finite_json(report.to_json()), {r.method: r.solve_time_s for r in report.results}

@@ -23,7 +23,7 @@ def body(text: str) -> dict:
 BAD = {
     "malformed JSON": (PLAN, body('{"limits": '), 400, "not valid JSON"),
     "not an object": (PLAN, body("[1, 2]"), 422, "one JSON object"),
-    "unknown field": (PLAN, {"json": {"limitz": {}}}, 422, "limitz: unknown field; a request takes problem, limits"),
+    "unknown field": (PLAN, {"json": {"limitz": {}}}, 422, "limitz: unknown field; a request takes problem, robot, limits"),
     "unknown limit": (PLAN, {"json": {"limits": {"qdot": 1.0}}}, 422, "limits.qdot: unknown field; limits takes"),
     "NaN limit": (PLAN, body('{"limits": {"qdot_max": NaN}}'), 422, "expected a finite number"),
     "infinite limit": (PLAN, body('{"limits": {"f_max": Infinity}}'), 422, "expected a finite number"),
@@ -46,6 +46,7 @@ BAD = {
     "a group with planners": (PLAN, {"json": {"methods": ["default", "direct"]}}, 422, "stands alone"),
     "a closed loop without simulation": (PLAN, {"json": {"methods": ["receding"]}}, 422, "set simulate to true"),
     "an unknown objective": (PLAN, {"json": {"objective": "fastest"}}, 422, "objective"),
+    "an unknown arm": (PLAN, {"json": {"robot": "r2d2"}}, 422, "r2d2"),
     "a negative deadline": (PLAN, {"json": {"timeout_s": -1.0}}, 422, "timeout_s"),
     "a deadline over the most": (PLAN, {"json": {"timeout_s": 1e6}}, 422, "at most 300"),
     "text for a flag": (PLAN, {"json": {"simulate": "yes"}}, 422, "simulate"),

@@ -28,7 +28,7 @@ def test_the_schema_has_the_documented_fields_and_refuses_others(service):
     assert set(schema["paths"]["/v1/plan"]) == {"post"}
     models = schema["components"]["schemas"]
     request = models["PlanRequest"]
-    assert list(request["properties"]) == documented("### The request") and len(request["properties"]) == 8
+    assert list(request["properties"]) == documented("### The request") and len(request["properties"]) == 9
     assert list(models["Limits"]["properties"]) == list(LIMIT_NAMES) == documented("### Limits")
     assert list(models["Constraints"]["properties"]) == list(SECTIONS["constraints"])
     for name in ("PlanRequest", "Limits", "Constraints"):
@@ -45,6 +45,9 @@ def test_the_models_route_lists_what_a_request_may_name(service):
     shipped = {p.stem for p in (REPO / "judgeopt" / "tasks").glob("*/problems/*.toml")}
     assert names == shipped and "paper_sim" in names
     assert set(models["methods"]["planners"]) == set(planner_names())
+    from judgeopt.robots import robot_names
+
+    assert models["robots"] == list(robot_names()) and "kinova" in models["robots"]
     assert models["loaded"]["paper_sim"]["judge_sha256"] == service.plan(QUICK).body["judge_sha256"]
 
 
