@@ -2,7 +2,7 @@
 
 The top-level API (judgeopt.api), loaded on first use so that `import judgeopt` stays light:
 `load_problem`, `load_planners`, `solve`, `load_judge`, `get_task`, `simulator`; the types
-`Problem`, `Plan`, `PlanResult`, `SolveReport`.
+`Problem`, `Plan`, `PlanResult`, `SolveReport`; and `Client`, a planning service's (`judgeopt serve`).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ _API = {
     "load_problem": "judgeopt.api", "load_planners": "judgeopt.api", "solve": "judgeopt.api",
     "load_judge": "judgeopt.api", "get_task": "judgeopt.api", "simulator": "judgeopt.api",
     "Problem": "judgeopt.planners.problem", "Plan": "judgeopt.trajectory", "PlanResult": "judgeopt.planners.result",
-    "SolveReport": "judgeopt.planners.session",
+    "SolveReport": "judgeopt.planners.session", "Client": "judgeopt.serve.client",
 }
 __all__ = [*_API, "__version__"]
 

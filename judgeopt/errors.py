@@ -38,7 +38,8 @@ EXIT_MEANINGS = {
     ExitCode.BAD_INPUT: "a file (dataset, model, problem, plan, recording) that cannot be read or used, or an "
                         "output that cannot be written (the line names it)",
     ExitCode.EXISTS: "an output exists and --overwrite was not given",
-    ExitCode.MISSING: "an optional dependency is not installed, or the judge library could not be built",
+    ExitCode.MISSING: "an optional dependency is not installed, or the judge library could not be built, or a "
+                      "planning service (solve --server) could not be reached or could not plan",
     ExitCode.INTERRUPTED: "Ctrl-C or SIGTERM: workers stopped, one line says what was written; collect, evaluate, "
                           "refine and train-ensemble resume when rerun",
 }
@@ -91,6 +92,7 @@ class OutputExists(JudgeoptError):
 
 
 class Missing(JudgeoptError):
-    """7: an optional dependency or a tool that is not installed, or a library that could not be built."""
+    """7: an optional dependency or a tool that is not installed, a library that could not be built, or a
+    planning service that cannot be reached or cannot plan."""
 
     exit_code = ExitCode.MISSING

@@ -28,6 +28,6 @@ pip install -q -c scripts/constraints.txt casadi scikit-build cmake ninja setupt
 if ! "$VENV/bin/python" -c "import l4casadi" 2>/dev/null; then
   CMAKE_POLICY_VERSION_MINIMUM=3.5 pip install -q --no-build-isolation -c scripts/constraints.txt l4casadi
 fi
-pip install -q --no-build-isolation -c scripts/constraints.txt -e ".[test,docs]"
+pip install -q --no-build-isolation -c scripts/constraints.txt -e ".[test,docs,serve]"
 rm -f "$VENV"/.judgeopt-setup-*
 touch "$stamp"

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Iterator
 
 from judgeopt.errors import EXIT_MEANINGS, ExitCode, JudgeoptError  # noqa: F401 (re-exported)
+from judgeopt.field_text import finite  # noqa: F401 (re-exported: every option's number)
 
 
 class CLIError(JudgeoptError):
@@ -293,14 +294,6 @@ class PlannerChoices:
 
     def __len__(self) -> int:
         return len(self.names())
-
-
-def finite(text: str) -> float:
-    """A number, never nan or inf (a ValueError, as float's, so each option's message holds)."""
-    value = float(text)
-    if not math.isfinite(value):
-        raise ValueError(text)
-    return value
 
 
 def number(text: str) -> float:

@@ -144,8 +144,9 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
     return 0
 
 
-#: the commands that never import torch (listings, plots of data files): the others import it first, holding Ctrl-C
-NO_TORCH = frozenset({"tasks", "robots", "plot-data"})
+#: the commands that never import torch (listings, plots of data files; the service, whose workers import it): the
+#: others import it first, holding Ctrl-C
+NO_TORCH = frozenset({"tasks", "robots", "plot-data", "serve"})
 EXIT_CODES_HELP = "exit codes:\n" + "\n".join(f"  {c.value:<4} {text}" for c, text in EXIT_MEANINGS.items())
 
 
@@ -244,6 +245,9 @@ def build_parser() -> argparse.ArgumentParser:
     from judgeopt.cli.export import add_export_commands
 
     add_export_commands(sub)
+    from judgeopt.cli.serve import add_serve_command
+
+    add_serve_command(sub)
     return p
 
 
@@ -343,10 +347,11 @@ def _main(argv: list[str] | None) -> int:
     args = build_parser().parse_args(argv)
     command = f"judgeopt {args.command}"
     _log_to_stderr(getattr(args, "quiet", False))
-    if args.command not in NO_TORCH:
+    here = not getattr(args, "server", None)  # solve --server: planned by a service, no torch here
+    if args.command not in NO_TORCH and here:
         with held():  # torch's import is native code throughout: a Ctrl-C inside it aborts the process
             import torch  # noqa: F401
-    if getattr(args, "threads", None) is not None:
+    if getattr(args, "threads", None) is not None and here:
         from judgeopt.threads import set_threads
 
         set_threads(args.threads)

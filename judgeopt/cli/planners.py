@@ -13,46 +13,16 @@ from typing import Any, Callable
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add_plugin_option, command_line, env_assignment,
                                  risk_rate,
                                  figure_path,
-                                 file_path, finite, number, out_option, positive, seed_option, threads_option, value_range)
+                                 file_path, number, out_option, positive, seed_option, threads_option, value_range)
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
 from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
+from judgeopt.field_text import field_type
 from judgeopt.planners.result import LEGEND, OUTSIDE
 from judgeopt.verdict.risk import CONFIDENCE, RISK
-from judgeopt.planners.problem import (AXIS_FIELDS, FIELD_TYPES, FORCE_FIELDS, SECTIONS, Problem, ProblemError,
-                                       load_problem)
+from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
 DEFAULT_PROBLEM = "problems/paper_sim.toml"
 
-
-
-def _number_or_name(text: str) -> float | str:
-    try:
-        return float(text)
-    except ValueError:
-        return text  # "free" or an environment variable; the problem checks which
-
-
-def _per_axis(convert):
-    """One value for every axis, or a comma-separated value per axis."""
-    def parse(text: str):
-        try:
-            values = [convert(v) for v in text.split(",")]
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a finite number or comma-separated numbers, got {text!r}") from None
-        return values[0] if len(values) == 1 else values
-    return parse
-
-
-def _parser_type(name: str):
-    if name in ("a_max", "jerk_max", "fdot_max"):
-        return _per_axis(float)  # inf allowed: no limit; the problem checks > 0
-    if name == "q_end":
-        return _per_axis(_number_or_name)
-    if name in AXIS_FIELDS + FORCE_FIELDS:
-        return _per_axis(finite)
-    if name in SECTIONS["models"] or str(FIELD_TYPES[name]) == "str":
-        return str
-    return int if str(FIELD_TYPES[name]) == "int" else float
 
 
 def add_problem_arguments(p: argparse.ArgumentParser) -> None:
@@ -77,7 +47,7 @@ def add_problem_arguments(p: argparse.ArgumentParser) -> None:
                                help=f"{FIELD_HELP[name]}; repeat for more, added to the file's [{section}] {name} "
                                "(inf: no bound on that side; without @T0:T1 the whole motion)")
                 continue
-            g.add_argument(f"--{name.replace('_', '-')}", dest=f"set_{name}", type=_parser_type(name), metavar="X",
+            g.add_argument(f"--{name.replace('_', '-')}", dest=f"set_{name}", type=field_type(name), metavar="X",
                            help=f"{FIELD_HELP[name]} ([{section}] {name}; {Path(DEFAULT_PROBLEM).name}: {shown})")
             if name == "judge":  # the name older scripts use; one flag in --help
                 g.add_argument("--judge-model", dest="set_judge", help=argparse.SUPPRESS)
@@ -165,6 +135,90 @@ def _with_method(path: str, method: str, several: bool) -> Path:
     return p.with_name(f"{p.stem}_{method}{p.suffix}") if several else p
 
 
+#: what solve --server sends: problem fields by the request's part (judgeopt.serve.schema.PlanRequest)
+SENT = {"limits": SECTIONS["limits"], "constraints": SECTIONS["constraints"], "objective": ("objective",)}
+
+
+def remote_request(args: argparse.Namespace) -> dict[str, Any]:
+    """The plan request for a service that solve's options make: the problem by name, the limits,
+    constraints, objective, environment and planners; an option a service is not sent is one line."""
+    from judgeopt.planners.problem import find_problem
+
+    local = {"--out": args.out, "--save-json": args.save_json, "--export": args.export, "--plot": args.plot,
+             "--generator": args.generator, "--models": args.models != "models", "--plugin": args.plugin,
+             "--simulate-env": args.simulate_env, "--warm-start": args.warm_start != "generator",
+             "--env-case": args.range_case != "worst", "--no-suggest": not args.suggest, "--risk": args.risk != RISK,
+             "--casadi-backend": args.casadi_backend != "auto"}
+    sent = {"robot", *(n for names in SENT.values() for n in names)}
+    local.update({f"--{k[4:].replace('_', '-')}": v for k, v in vars(args).items()
+                  if k.startswith("set_") and k[4:] not in sent and v is not None})
+    given = [flag for flag, v in local.items() if v]
+    if given:
+        raise CLIError(f"{', '.join(given)}: not sent to a planning service (--server sends the problem's name, the "
+                       "robot, limits, constraints, objective and environment, and --method); drop it, or solve here")
+    name = Path(args.problem).name.removesuffix(".toml")
+    if args.problem not in (name, f"{name}.toml", f"problems/{name}.toml") or \
+            (Path(args.problem).exists() and Path(args.problem).resolve() != find_problem(name).resolve()):
+        raise CLIError(f"--problem {args.problem}: a planning service plans problems by name; give a shipped "
+                       "problem's name or one the service was started with (--problem NAME)")
+    body: dict[str, Any] = {"problem": name, "methods": [args.method], "simulate": args.simulate}
+    if args.set_robot is not None:
+        body["robot"] = args.set_robot
+    for part, names in SENT.items():
+        values = {n: getattr(args, f"set_{n}") for n in names if getattr(args, f"set_{n}", None) is not None}
+        if part == "constraints" and args.add_bounds:
+            values["bounds"] = list(args.add_bounds)
+        if values:
+            body[part] = values["objective"] if part == "objective" else values
+    environment = {k[4:]: v for k, v in vars(args).items() if k.startswith("env_") and v is not None}
+    environment.update(dict(args.env or []))
+    for k, text in environment.items():
+        try:
+            values = [float(x) for x in text.split(",")]
+        except ValueError:
+            raise CLIError(f"--{k.replace('_', '-')} {text}: give a number or LO,HI") from None
+        environment[k] = values[0] if len(values) == 1 else values
+    if environment:
+        body["environment"] = environment
+    return body
+
+
+def solve_remote(args: argparse.Namespace) -> int:
+    """solve --server URL: the plan made by a planning service (judgeopt serve), printed as a local
+    solve prints it (--json: the service's object as it came)."""
+    import time
+
+    from judgeopt.planners.session import SolveReport
+    from judgeopt.serve.client import Client, ServiceError
+
+    t0 = time.perf_counter()
+    token = None
+    if args.token_file:
+        from judgeopt.serve.config import read_token
+
+        token = read_token(args.token_file)
+    body = remote_request(args)
+    try:
+        answer = Client(args.server, token).request("POST", "/v1/plan", body)
+    except ServiceError as exc:
+        if exc.answer.get("status") == "infeasible":
+            if args.json:
+                print(json.dumps(exc.answer))
+            else:
+                print(f"judgeopt solve: infeasible: {exc.answer['message']}", file=sys.stderr)
+            return ExitCode.INFEASIBLE
+        if exc.status is not None and 400 <= exc.status < 500:  # the request's to fix
+            raise CLIError(str(exc)) from None
+        raise
+    report = SolveReport.from_json(answer)
+    if args.json:
+        print(json.dumps(answer))
+    else:
+        print_report(report, simulate=args.simulate, explain=args.explain, suggest=args.suggest)
+        print(f"total {time.perf_counter() - t0:.1f} s (planned by {args.server})")
+    return solve_exit_code(report)
+
+
 def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
     """The calibration, ensemble and trust model named on the command line, checked before any
     model loads: one missing, a folder where a file belongs or a file of another kind is one line."""
@@ -196,8 +250,8 @@ def risk_line(r) -> str:
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
-    import numpy as np
-
+    if args.server:
+        return solve_remote(args)
     from judgeopt.planners import session
     from judgeopt.planners.feasible import check as check_constraints
     from judgeopt.planners.loaded import Planners
@@ -253,92 +307,102 @@ def cmd_solve(args: argparse.Namespace) -> int:
         sim = task.simulator(task.robot_settings(problem.robot))
     report = session.solve(planners, simulator=sim, world=told, warm_start=args.warm_start,
                            ranges=ranges_given(args, problem), range_case=args.range_case, suggest=args.suggest)
-    results, suggestions, unlikely = report.results, report.suggestions, report.unlikely
-    writes = _outputs(args, problem, planners, results, several)
-    infeasible, verdict = report.infeasible, report.verdict
+    writes = _outputs(args, problem, planners, report.results, several)
     if args.json:  # written first, so that the one object says what was written (and what not)
         files, failed = _write(writes)
-        top = report.recommended
-        print(json.dumps({"status": "infeasible" if infeasible else "ok", "verdict": verdict,
-                          "recommended": top.method if top is not None else None,
-                          "disagreement": report.disagreement, "outside_judge_data": report.outside,
-                          "suggestions": [x.to_json() for x in suggestions], "problem": problem.to_dict(),
-                          "environment": env, "judge": str(planners.judge_path),
-                          "judge_sha256": planners.judge_meta["weights_sha256"],
-                          "generator": str(planners.generator_path) if planners.generator_path else None,
-                          "notes": planners.notes, "files": [str(f) for f in files],
-                          "results": [r.to_json() for r in results],
-                          **({"error": str(failed), "exit_code": int(failed.exit_code)} if failed else {})}))
+        print(json.dumps(report.to_json(files, failed)))
         if failed:
             return failed.exit_code
     else:
-        envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
-        if args.simulate and report.world:  # what the simulated world has besides (or instead of) what was said
-            envs += f"; simulated with {', '.join(f'{k} = {v:g}' for k, v in report.world.items())}"
-        ends = ", ".join("free" if np.isnan(e) else f"{e:g}" for e in problem.terminal_positions(env))
-        print(f"{problem.name} ({problem.task}): q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in "
-              f"[{problem.f_min}, {problem.f_max}] N, q from {problem.q0} to {ends} m in "
-              f"{problem.horizon_time:g} s; environment {envs}")
-        for note in planners.notes:
-            print(f"note: {note}")
-        for x in report.outside:
-            print(f"note: {x}")
-        print(_table(results))
-        shown = next((r for r in reversed(results) if r.plan is not None), None)
-        if shown is not None:
-            print(f"\n{shown.method} plan (every 5th of {shown.plan.horizon + 1} samples):")
-            print(_plan_rows(shown.plan))
-        from judgeopt.tasks import get_task
-
-        task = get_task(problem.task)
-        for r in results:
-            if r.status not in ("solved", "generated", "executed"):
-                print(f"{r.method}: {r.message}")
-            if "sim_refused" in r.info:
-                print(f"{r.method}, simulated: the simulator refused the plan ({r.info['sim_refused']}): a failure")
-            elif r.simulated_success is not None:
-                details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
-                print(f"{r.method}, simulated: {'success' if r.simulated_success else 'FAILURE'}: "
-                      f"{task.explain(details)}")
-        for r in results:  # what each planner has to say about its own result
-            for line in planners[r.method].details(r):
-                print(line)
-        uncovered = [r.method for r in results if r.probability_source == "judge"
-                     and r.info.get("calibrated_success") is not None]
-        if uncovered:
-            print(f"note: the calibration does not cover the {' and '.join(uncovered)} plan here (limits, "
-                  "environment and judge's p far from the outcomes it was fitted on): its success p is the judge's own")
-        if args.explain:
-            for r in results:
-                if r.verdict is not None:
-                    print(f"risk ({r.method}): {risk_line(r)}")
-        print(f"legend: {LEGEND}" if args.explain else "(judge: the judge's own p; success p: the p judgeopt stands "
-              "behind; --explain says more)")
-        files, failed = _write(writes)
-        for f in files:
-            print(f"wrote {f}")
-        top = report.recommended
-        if report.disagreement:
-            print(f"note: {report.disagreement}")
-        if verdict == OUTSIDE:
-            print(f"judgeopt solve: the plan to run ({top.method}) is {OUTSIDE}: its p = {top.success_probability:.2f} "
-                  "is the judge's guess where it never learnt; replay it in simulation or on the robot before trusting "
-                  "it, or bring the request inside the judge's ranges (`judgeopt inspect` lists them)")
-        elif unlikely:
-            best = f" (the plan to run: {top.method}, p = {top.success_probability:.2f})" if top is not None else ""
-            print(f"judgeopt solve: no plan is likely to succeed under these limits{best}")
-            for x in suggestions:
-                print(f"  {x.text()}")
-            if args.suggest:
-                from judgeopt.planners.suggest import searched
-
-                print(f"  (searched by re-planning in {report.suggest_seconds:.1f} s)" if suggestions else
-                      f"  no single relaxation ({', '.join(searched(problem))}; each within the demonstrations' "
-                      "range or its reach) makes a plan likely")
+        failed = print_report(report, simulate=args.simulate, explain=args.explain, suggest=args.suggest,
+                              write=lambda: _write(writes))
         print(f"total {time.perf_counter() - t0:.1f} s")
         if failed:  # everything above is printed; the one line says what could not be written
             raise failed
-    return ExitCode.INFEASIBLE if infeasible else ExitCode.OK if verdict == "likely" else ExitCode.UNLIKELY
+    return solve_exit_code(report)
+
+
+def solve_exit_code(report) -> int:
+    """What `judgeopt solve` returns for a report: 3 infeasible, 0 a likely plan, else 4."""
+    return ExitCode.INFEASIBLE if report.infeasible else ExitCode.OK if report.verdict == "likely" else ExitCode.UNLIKELY
+
+
+def print_report(report, *, simulate: bool, explain: bool, suggest: bool,
+                 write: Callable[[], tuple[list[Path], OutputWriteError | None]] = lambda: ([], None)
+                 ) -> OutputWriteError | None:
+    """A solve's report as `judgeopt solve` prints it (the problem, notes, the table, the plan, what
+    each planner adds, the verdict and suggestions), for a local solve and a service's answer
+    alike; `write` writes the outputs between the table and the verdict, and the error of one that
+    could not be written is returned (everything is printed first)."""
+    import numpy as np
+
+    problem, env, results, planners = report.problem, report.env, report.results, report.planners
+    envs = ", ".join(f"{k} = {v:g}" for k, v in env.items())
+    if simulate and report.world:  # what the simulated world has besides (or instead of) what was said
+        envs += f"; simulated with {', '.join(f'{k} = {v:g}' for k, v in report.world.items())}"
+    ends = ", ".join("free" if np.isnan(e) else f"{e:g}" for e in problem.terminal_positions(env))
+    print(f"{problem.name} ({problem.task}): q̇ in [{problem.qdot_min}, {problem.qdot_max}] m/s, f in "
+          f"[{problem.f_min}, {problem.f_max}] N, q from {problem.q0} to {ends} m in "
+          f"{problem.horizon_time:g} s; environment {envs}")
+    for note in planners.notes:
+        print(f"note: {note}")
+    for x in report.outside:
+        print(f"note: {x}")
+    print(_table(results))
+    shown = next((r for r in reversed(results) if r.plan is not None), None)
+    if shown is not None:
+        print(f"\n{shown.method} plan (every 5th of {shown.plan.horizon + 1} samples):")
+        print(_plan_rows(shown.plan))
+    from judgeopt.tasks import get_task
+
+    task = get_task(problem.task)
+    for r in results:
+        if r.status not in ("solved", "generated", "executed"):
+            print(f"{r.method}: {r.message}")
+        if "sim_refused" in r.info:
+            print(f"{r.method}, simulated: the simulator refused the plan ({r.info['sim_refused']}): a failure")
+        elif r.simulated_success is not None:
+            details = {k[4:]: v for k, v in r.info.items() if k.startswith("sim_")}
+            print(f"{r.method}, simulated: {'success' if r.simulated_success else 'FAILURE'}: "
+                  f"{task.explain(details)}")
+    for r in results:  # what each planner has to say about its own result
+        for line in planners[r.method].details(r):
+            print(line)
+    uncovered = [r.method for r in results if r.probability_source == "judge"
+                 and r.info.get("calibrated_success") is not None]
+    if uncovered:
+        print(f"note: the calibration does not cover the {' and '.join(uncovered)} plan here (limits, "
+              "environment and judge's p far from the outcomes it was fitted on): its success p is the judge's own")
+    if explain:
+        for r in results:
+            if r.verdict is not None:
+                print(f"risk ({r.method}): {risk_line(r)}")
+    print(f"legend: {LEGEND}" if explain else "(judge: the judge's own p; success p: the p judgeopt stands "
+          "behind; --explain says more)")
+    files, failed = write()
+    for f in files:
+        print(f"wrote {f}")
+    top = report.recommended
+    if report.disagreement:
+        print(f"note: {report.disagreement}")
+    if report.verdict == OUTSIDE:
+        print(f"judgeopt solve: the plan to run ({top.method}) is {OUTSIDE}: its p = {top.success_probability:.2f} "
+              "is the judge's guess where it never learnt; replay it in simulation or on the robot before trusting "
+              "it, or bring the request inside the judge's ranges (`judgeopt inspect` lists them)")
+    elif report.unlikely:
+        best = f" (the plan to run: {top.method}, p = {top.success_probability:.2f})" if top is not None else ""
+        print(f"judgeopt solve: no plan is likely to succeed under these limits{best}")
+        for x in report.suggestions:
+            print(f"  {x.text()}")
+        if suggest:
+            from judgeopt.planners.suggest import searched
+
+            if not report.suggestions:
+                print(f"  no single relaxation ({', '.join(searched(problem))}; each within the demonstrations' "
+                      "range or its reach) makes a plan likely")
+            elif report.suggest_seconds is not None:  # a service's answer does not say how long it searched
+                print(f"  (searched by re-planning in {report.suggest_seconds:.1f} s)")
+    return failed
 
 
 #: one output of solve, not yet written: (the option that named it, the writer returning its path)
@@ -405,11 +469,10 @@ def _assignments(items: list[str] | None) -> dict[str, float]:
 
 
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
-    conflict = getattr(exc, "conflict", [])
     if args.json:
-        print(json.dumps({"status": "infeasible", "verdict": "infeasible", "message": str(exc), "conflict": conflict,
-                          "environment": env,
-                          "problem": problem.to_dict(), "results": []}))
+        from judgeopt.planners.session import infeasible_json
+
+        print(json.dumps(infeasible_json(problem, env, exc)))
     else:
         print(f"judgeopt solve: infeasible: {exc}", file=sys.stderr)
     return ExitCode.INFEASIBLE
@@ -577,6 +640,10 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    help=f"the failure rate a 'likely' may carry, as a {100 * CONFIDENCE:g} %% upper confidence bound on "
                    f"held-out replayed plans of the planner (default {RISK:g}); a plan above 0.5 but under the threshold "
                    "that risk sets is 'uncertain'")
+    s.add_argument("--server", metavar="URL", help="ask a planning service (`judgeopt serve`, e.g. "
+                   "http://127.0.0.1:8000) instead of planning here: the same table, no models loaded here; it is sent "
+                   "the problem by name, the limits, constraints, objective, environment and --method")
+    s.add_argument("--token-file", metavar="FILE", help="with --server: the service's bearer token (its first line)")
     s.add_argument("--suggest", action=argparse.BooleanOptionalAction, default=True,
                    help="when no plan is likely, re-plan under relaxed limits and name the smallest change of one "
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")

@@ -171,6 +171,26 @@ class PlanResult:
         d.update({k: v for k, v in self.info.items() if k not in d})
         return d
 
+    @classmethod
+    def from_json(cls, d: dict[str, Any], dt: float, task: str) -> "PlanResult":
+        """A result as `to_json` wrote it (a planning service's answer), its plan rebuilt on the
+        task's channels at period `dt`: `to_json` of it gives `d` back."""
+        from judgeopt.tasks import get_task
+
+        plan = None
+        if "channels" in d:
+            channels = {c.name: c for c in get_task(task).channels}
+            plan = Plan.from_columns(dt, tuple(channels[n] for n in d["channels"]),
+                                     *(np.asarray(d[n], dtype=float) for n in d["channels"]))
+        own = {"method", "status", "message", "environment", "predicted_success", "simulated_success",
+               "max_constraint_violation", "worst_constraint", "residuals", "solve_time_s", "iterations",
+               "success_probability", "probability_source", "verdict", "t", "channels", "units",
+               *(d.get("channels") or ())}
+        return cls(d["method"], d["environment"], plan, d["predicted_success"], d["status"], d["solve_time_s"],
+                   d["residuals"], d["iterations"], d["message"], d["simulated_success"],
+                   {k: v for k, v in d.items() if k not in own}, d["success_probability"],
+                   d["probability_source"] or "")
+
 
 def seconds(t: float) -> str:
     """A solve time as people read it: "12.3 ms" under a second, "1.23 s" above."""

@@ -137,6 +137,66 @@ class SolveReport(ReportViews):
                          if r.verdict is not None)
         return f"the planners disagree: {said}; run the {top.method} plan"
 
+    def to_json(self, files: Sequence[Any] = (), failed: Any = None) -> dict[str, Any]:
+        """The one object `judgeopt solve --json` prints and a planning service answers (judgeopt
+        serve): the verdict, the plan to run, every result with its plan, and the models that made
+        them. `files`: what the command wrote; `failed`: the error of the output it could not write
+        (a JudgeoptError), said in the object with its exit code."""
+        top, planners = self.recommended, self.planners
+        return {"status": "infeasible" if self.infeasible else "ok", "verdict": self.verdict,
+                "recommended": top.method if top is not None else None,
+                "disagreement": self.disagreement, "outside_judge_data": self.outside,
+                "suggestions": [x.to_json() for x in self.suggestions], "problem": self.problem.to_dict(),
+                "environment": self.env, "judge": str(planners.judge_path),
+                "judge_sha256": planners.judge_meta["weights_sha256"],
+                "generator": str(planners.generator_path) if planners.generator_path else None,
+                "notes": planners.notes, "files": [str(f) for f in files],
+                "results": [r.to_json() for r in self.results],
+                **({"error": str(failed), "exit_code": int(failed.exit_code)} if failed else {})}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> "SolveReport":
+        """A report as `to_json` wrote it (a planning service's answer), to print as a local solve
+        prints its own: the problem, results with their plans, notes and suggestions. What only
+        the planners in memory know (a planner's own detail lines, the search's duration) is not
+        in the object."""
+        from judgeopt.planners.result import PlanResult
+        from judgeopt.planners.suggest import Suggestion
+
+        problem = Problem.from_dict(d["problem"])
+        results = [PlanResult.from_json(r, problem.dt, problem.task) for r in d["results"]]
+        answered = AnsweredPlanners(list(d["notes"]), d["judge"], {"weights_sha256": d["judge_sha256"]},
+                                    d["generator"])
+        env = dict(d["environment"])
+        world = {k: v for k, v in problem.world_env(env).items() if k not in env}  # as `solve` sets it
+        return cls(problem, env, answered, results, world, [Suggestion.from_json(x) for x in d["suggestions"]])
+
+
+@dataclass
+class AnsweredPlanners:
+    """What a report read back from JSON (`SolveReport.from_json`) keeps of the planners that made
+    it: their notes and models; no planner is in memory, so none has detail lines to add."""
+
+    notes: list[str]
+    judge_path: str
+    judge_meta: dict[str, Any]
+    generator_path: str | None
+
+    def __getitem__(self, method: str) -> "AnsweredPlanners":
+        return self  # stands for each planner: `report.planners[method].details(result)`
+
+    def details(self, result: Any) -> list[str]:
+        return []
+
+
+def infeasible_json(problem: Problem, env: Mapping[str, float], exc: Exception) -> dict[str, Any]:
+    """The object `judgeopt solve --json` prints, and a planning service answers, for limits that
+    admit no plan (found before any solver runs): the message and the limits in conflict."""
+    return {"status": "infeasible", "verdict": "infeasible", "message": str(exc),
+            "conflict": getattr(exc, "conflict", []), "environment": dict(env), "problem": problem.to_dict(),
+            "results": []}
+
+
 def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | None = None,
           warm_start: str = "generator", ranges: Mapping[str, tuple[float, float]] | None = None,
           range_case: str = "worst", suggest: bool = True) -> SolveReport:

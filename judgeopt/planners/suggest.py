@@ -16,13 +16,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 from judgeopt.planners.constraints import RATE_LIMITS
 from judgeopt.planners.problem import Problem, ProblemError
 from judgeopt.planners.result import LIKELY, PlanResult, recommended, verdict_of
 from judgeopt.planners.base import spec_of
-from judgeopt.planners.loaded import Planners
 from judgeopt.tasks import Task, get_task
+
+if TYPE_CHECKING:  # annotations only: a report read back from JSON (a service's answer) prints its suggestions
+    from judgeopt.planners.loaded import Planners  # without importing torch
 
 
 @dataclass(frozen=True)
@@ -99,6 +102,15 @@ class Suggestion:
                 "success_probability": r.success_probability, "probability_source": r.probability_source,
                 "method": r.method, "predicted_success": r.predicted_success, "bound": self.bound,
                 "success_probability_at_bound": self.p_at_bound}
+
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> "Suggestion":
+        """A suggestion as `to_json` wrote it (a planning service's answer), enough to print it
+        (`text`) and write it again; its result keeps the headline values only, no plan."""
+        result = PlanResult(d["method"], {}, None, d["predicted_success"], "", 0.0,
+                            success_probability=d["success_probability"], probability_source=d["probability_source"])
+        return cls(d["limit"], math.nan if d["value"] is None else d["value"], d["current"], d["unit"], result,
+                   d["success_probability_at_bound"], d["bound"], d["binds"] or "")
 
 
 def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) -> tuple[float, bool]:

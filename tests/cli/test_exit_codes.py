@@ -43,6 +43,8 @@ TABLE: dict[str, ExitCode] = {
     "judgeopt.sim.robot.RobotDescriptionError": ExitCode.MISSING,
     "judgeopt.robots.spec.RobotError": ExitCode.BAD_INPUT,
     "judgeopt.cbuild.CompileError": ExitCode.MISSING,
+    "judgeopt.serve.client.ServiceError": ExitCode.MISSING,
+    "judgeopt.serve.request.InfeasibleRequest": ExitCode.INFEASIBLE,
 }
 #: the bases each class kept, so that `except ValueError` (and the like) still catches it
 KEPT = {"ValueError": ValueError, "RuntimeError": RuntimeError, "FileExistsError": FileExistsError, "OSError": OSError}

@@ -1,0 +1,33 @@
+"""A request turned into what solve plans, without a server: the problems a server may be given
+besides the shipped ones, and what a prepared request holds."""
+
+from __future__ import annotations
+
+import pytest
+
+from judgeopt.planners.problem import ProblemError
+from judgeopt.serve.request import prepare, problem_files
+from judgeopt.serve.schema import PlanRequest
+
+
+def test_a_problem_file_given_to_the_server_is_planned_by_its_name(tmp_path):
+    mine = tmp_path / "slow_scoop.toml"
+    mine.write_text('base = "problems/paper_sim.toml"\n[limits]\nqdot_max = 0.3\n')
+    problems = problem_files([str(mine)])
+    assert problems["slow_scoop"] == mine.resolve() and "paper_sim" in problems
+    prepared = prepare(PlanRequest(problem="slow_scoop"), problems)
+    assert prepared.problem.qdot_max == 0.3 and prepared.methods == ("default",)
+    with pytest.raises(ProblemError, match="not one this server plans"):
+        prepare(PlanRequest(problem="slow_scoop"), problem_files())
+
+
+def test_a_file_named_as_a_shipped_problem_is_refused(tmp_path):
+    (tmp_path / "paper_sim.toml").write_text('base = "problems/paper_sim.toml"\n')
+    with pytest.raises(ProblemError, match="already served"):
+        problem_files([str(tmp_path / "paper_sim.toml")])
+
+
+def test_a_range_is_planned_over_and_a_value_is_not():
+    prepared = prepare(PlanRequest(environment={"y_obj": [0.15, 0.2], "mu": 2.5}), problem_files())
+    assert prepared.ranges == {"y_obj": (0.15, 0.2)}
+    assert prepared.problem.nominal_env()["mu"] == 2.5
