@@ -55,3 +55,21 @@ def module_copy(tmp_path, monkeypatch):
         return mod
 
     return copy
+
+
+@pytest.fixture(scope="session")
+def service(tmp_path_factory):
+    """The session's planning service (tests/serve/serving.py starts it): one worker, a queue of one, a
+    token; what the answer, input and fault tests share. A test that kills the worker waits for its
+    replacement before it ends. Here, not in a tests/serve/conftest.py: a second module named conftest
+    would shadow this one for the tests that import min_jerk_plan from it."""
+    pytest.importorskip("fastapi")  # the serve extra
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).parent / "serve"))
+    from serving import TOKEN, start
+
+    s = start(tmp_path_factory.mktemp("service"), "--workers", "1", "--queue", "1", token=TOKEN)
+    yield s
+    assert s.stop() == 0
