@@ -22,10 +22,6 @@ ARMS = robot_names()
 PAYLOAD = 1.27  # N
 
 
-def test_at_least_five_arms_besides_the_default():
-    assert DEFAULT_ROBOT == "ur5" and len(set(ARMS) - {DEFAULT_ROBOT}) >= 5
-
-
 @pytest.mark.parametrize("robot", ARMS)
 def test_the_plant_is_the_model(robot):
     """PyBullet's mass matrix (what it integrates) equals Pinocchio's (M and Lambda in the controller)
