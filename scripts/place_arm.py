@@ -1,6 +1,6 @@
 """Choose an arm's base placement and home posture for the scoop (judgeopt.robots): over a grid of
 base positions (x behind the plate's home point, height above the plate), and IK solutions from
-random starts, the one whose whole scooping line (judgeopt.sim.placement.scoop_line) is reached
+random starts, the one whose whole scooping line (judgeopt.tasks.scoop.placement.scoop_line) is reached
 with the largest distance to the joint limits and to a singularity. Prints the fields to put in
 the arm's file; the tests (tests/robots) check the chosen ones.
 
@@ -10,14 +10,15 @@ the arm's file; the tests (tests/robots) check the chosen ones.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 
 import numpy as np
 import pinocchio as pin
 
-from judgeopt.robots import get_robot
+from judgeopt.robots import get_robot, register_robot
 from judgeopt.sim.controller import solve_ik
-from judgeopt.sim.placement import arm_model, scoop_line
-from judgeopt.sim.robot import SpatulaGeometry
+from judgeopt.tasks.scoop.placement import arm_model, scoop_line
+from judgeopt.tasks.scoop.scene import SceneConfig
 
 
 def score(reach) -> float:
@@ -34,9 +35,13 @@ def main() -> None:
     ap.add_argument("--seeds", type=int, default=12)
     args = ap.parse_args()
     spec = get_robot(args.robot)
-    base_model, tcp = arm_model(args.robot)
+    # the search moves the base from the world's origin: the arm as written with its own placement undone
+    unplaced = dataclasses.replace(spec, name=f"{spec.name}_unplaced", base_xyz=(0.0, 0.0, 0.0), base_yaw=0.0)
+    register_robot(unplaced)
+    base_model, tcp = arm_model(unplaced.name)
     first = base_model.jointPlacements[1].copy()
-    g = SpatulaGeometry()
+    scene = SceneConfig()
+    home_point = np.array([scene.x_home, 0.0, scene.spatula.tcp_height_on_plate()])
     rng = np.random.default_rng(0)
     lo, hi = base_model.lowerPositionLimit, base_model.upperPositionLimit
     best = (-np.inf, None)
@@ -47,13 +52,13 @@ def main() -> None:
             for k in range(args.seeds):
                 seed = np.array(spec.home) if k == 0 else rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi))
                 try:
-                    home = solve_ik(base_model, tcp, pin.SE3(np.eye(3), np.array([0.3, 0.0, g.tcp_height_on_plate()])), seed)
+                    home = solve_ik(base_model, tcp, pin.SE3(np.eye(3), home_point), seed)
                 except ValueError:
                     continue
                 home = (home + np.pi) % (2 * np.pi) - np.pi
-                s = score(scoop_line(args.robot, home=home, model=(base_model, tcp)))
+                s = score(scoop_line(unplaced.name, home=home, model=(base_model, tcp)))
                 if s > best[0]:
-                    best = (s, (round(float(bx), 3), round(float(bz), 3), home.round(3).tolist()))
+                    best = (s, (round(float(bx), 3) + 0.0, round(float(bz), 3) + 0.0, home.round(3).tolist()))
         print(f"base x {bx:+.2f}: best so far {best[0]:.3f} {best[1]}", flush=True)
     s, (bx, bz, home) = best
     print(f"\nscore {s:.3f}\nbase_xyz=({bx}, 0.0, {bz}),\nhome={tuple(home)},")

@@ -10,7 +10,7 @@ from typing import Any
 
 def describe(name: str, reach: bool = False, check: bool = False) -> dict[str, Any]:
     """One arm as a dict: its config, the joints' limits from the written URDF (Pinocchio); with
-    `reach` the segment of the scooping line it holds the spatula on (judgeopt.sim.placement); with
+    `reach` the segment of the scooping line it holds the spatula on (judgeopt.tasks.scoop.placement); with
     `check` the plant = model and compiled = Python step errors (judgeopt.sim.checks)."""
     import pinocchio as pin
 
@@ -27,7 +27,7 @@ def describe(name: str, reach: bool = False, check: bool = False) -> dict[str, A
          "mass": round(sum(i.mass for i in model.inertias), 3), "base_xyz": list(spec.base_xyz),
          "corrections": corrections, "notes": spec.notes}
     if reach:
-        from judgeopt.sim.placement import scoop_line
+        from judgeopt.tasks.scoop.placement import scoop_line
 
         r = scoop_line(name)
         d["reach"] = r.segment()

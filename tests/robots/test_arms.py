@@ -15,7 +15,7 @@ from judgeopt.robots.spec import RobotError
 from judgeopt.sim.compiled import CompiledController
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand
 from judgeopt.sim.checks import compiled_step_error, plant_model_error
-from judgeopt.sim.placement import scoop_line
+from judgeopt.tasks.scoop.placement import scoop_line
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 
 ARMS = robot_names()

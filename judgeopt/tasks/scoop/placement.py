@@ -4,7 +4,7 @@ Jacobian's smallest singular value (how far from a singularity).
 
 Why: an arm config's base placement and home posture (judgeopt.robots) are only right if the whole
 line the plans use lies inside the workspace with margin; this measures it, for the tests, for
-`judgeopt robots` and for choosing a new arm's placement (scripts/place_arm.py).
+`judgeopt robots --reach` and for choosing a new arm's placement (scripts/place_arm.py).
 """
 
 from __future__ import annotations
@@ -17,16 +17,14 @@ import pinocchio as pin
 from judgeopt.robots import get_robot
 from judgeopt.sim.controller import solve_ik
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
-
-#: the scooping line's positions the rollout may command (tasks/scoop/rollout.Y_RANGE) and the lift after it
-LINE = (-0.25, 0.45)
-LIFT = 0.05
+from judgeopt.tasks.scoop.rollout import Y_RANGE, RolloutConfig
+from judgeopt.tasks.scoop.scene import SceneConfig
 
 
 @dataclass(frozen=True)
 class Reach:
     """The arm along the line: per sampled position y [m], whether IK reached the pose (blade on the
-    plate and lifted by LIFT), the least distance of any joint to its position limits [rad] and the
+    plate and lifted as the rollout lifts it), the least distance of any joint to its position limits [rad] and the
     smallest singular value of the TCP's Jacobian over both poses."""
 
     robot: str
@@ -54,15 +52,17 @@ def arm_model(robot: str, spatula: SpatulaGeometry | None = None) -> tuple[pin.M
     return model, model.getFrameId("tcp")
 
 
-def scoop_line(robot: str, x_home: float = 0.3, spatula: SpatulaGeometry | None = None, step: float = 0.025,
-               home: np.ndarray | None = None, model: tuple[pin.Model, int] | None = None) -> Reach:
-    """IK along the line from the arm's home posture outwards from y = 0, each pose started from its
-    neighbour's solution (the branch the rollout keeps), angles wrapped to [-pi, pi) as the driver does."""
-    g = spatula or SpatulaGeometry()
+def scoop_line(robot: str, scene: SceneConfig | None = None, step: float = 0.025, home: np.ndarray | None = None,
+               model: tuple[pin.Model, int] | None = None) -> Reach:
+    """IK along the positions the rollout may command (rollout.Y_RANGE), from the arm's home posture
+    outwards from y = 0, each pose started from its neighbour's solution (the branch the rollout keeps),
+    angles wrapped to [-pi, pi) as the driver does."""
+    cfg = scene or SceneConfig()
+    g, x_home, lift = cfg.spatula, cfg.x_home, RolloutConfig().lift_height
     m, tcp = model or arm_model(robot, g)
     data = m.createData()
     z = g.tcp_height_on_plate()
-    y = np.round(np.arange(LINE[0], LINE[1] + step / 2, step), 9)
+    y = np.round(np.arange(Y_RANGE[0], Y_RANGE[1] + step / 2, step), 9)
     reached, margin, sigma = np.zeros(len(y), bool), np.full(len(y), -np.inf), np.zeros(len(y))
     start = np.array(get_robot(robot).home if home is None else home, dtype=float)
     centre = int(np.argmin(np.abs(y)))
@@ -70,7 +70,7 @@ def scoop_line(robot: str, x_home: float = 0.3, spatula: SpatulaGeometry | None 
         q_prev = start
         for i in order:
             try:
-                qs = [solve_ik(m, tcp, pin.SE3(np.eye(3), np.array([x_home, y[i], z + h])), q_prev) for h in (0.0, LIFT)]
+                qs = [solve_ik(m, tcp, pin.SE3(np.eye(3), np.array([x_home, y[i], z + h])), q_prev) for h in (0.0, lift)]
             except ValueError:
                 break
             q_prev = qs[0]
