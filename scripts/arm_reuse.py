@@ -66,8 +66,8 @@ def main() -> None:
         lines.append(f"| {row['robot']} | {row['n']} | {row['success']:.3f} | {row['same_as_ur5']:.3f} | "
                      + " | ".join(f"{row[j]:.3f}" for j in judges_views) + " |")
     table = "\n".join(lines) + "\n"
-    atomic_write(out / "reuse.md", f"Command: `python scripts/arm_reuse.py --n {args.n} --seed {args.seed} "
-                 f"--out {args.out}`\n\n" + table)
+    atomic_write(out / "reuse.md", f"Command: `python scripts/arm_reuse.py --n {args.n} --seed {args.seed} --robots "
+                 f"{' '.join(robots)} --out {args.out}`\n\n" + table)
     print(table)
 
     import matplotlib.pyplot as plt
@@ -94,6 +94,7 @@ def finetune(args: argparse.Namespace, tests: dict, out: Path) -> None:
     own demonstrations of seed --finetune, for each k of --sizes; accuracy on that arm's test set."""
     import json
 
+    from judgeopt.judge.errors import JudgeError
     from judgeopt.judge.train import TrainConfig, train_judge
 
     task = get_task("scoop")
@@ -110,17 +111,23 @@ def finetune(args: argparse.Namespace, tests: dict, out: Path) -> None:
         for k in args.sizes:
             key = f"{r}:{k}"
             if key not in done:
-                model, _ = train_judge(train.subset(np.arange(k)), None, None,
-                                       TrainConfig(epochs=args.epochs, lr=5e-4, seed=0, progress=False), init=base)
-                done[key] = evaluate_judge(model, tests[r])["accuracy"]
+                try:
+                    model, _ = train_judge(train.subset(np.arange(k)), None, None,
+                                           TrainConfig(epochs=args.epochs, lr=5e-4, seed=0, progress=False), init=base)
+                    done[key] = evaluate_judge(model, tests[r])["accuracy"]
+                except JudgeError as exc:  # too few of one class to split off a validation set
+                    done[key] = None
+                    print(f"{r}, {k} demonstrations: not fine-tuned: {exc}", flush=True)
                 atomic_write(done_path, json.dumps(done))  # resumable: one fine-tune at a time
-            print(f"{r}: {name} fine-tuned on {k} of its demonstrations: accuracy {done[key]:.3f}", flush=True)
+            if done[key] is not None:
+                print(f"{r}: {name} fine-tuned on {k} of its demonstrations: accuracy {done[key]:.3f}", flush=True)
     head = ["arm", f"{name} as trained", *(f"fine-tuned on {k}" for k in args.sizes)]
     lines = [f"| {' | '.join(head)} |", f"|{'---|' * len(head)}"]
     for r, ds in tests.items():
         if r != DEFAULT_ROBOT:
             lines.append(f"| {r} | {evaluate_judge(base, ds)['accuracy']:.3f} | "
-                         + " | ".join(f"{done[f'{r}:{k}']:.3f}" for k in args.sizes) + " |")
+                         + " | ".join("too few successes" if done[f"{r}:{k}"] is None else f"{done[f'{r}:{k}']:.3f}"
+                                      for k in args.sizes) + " |")
     atomic_write(out / "finetune.md", f"Command: `python scripts/arm_reuse.py --n {args.n} --seed {args.seed} "
                  f"--finetune {args.finetune} --out {args.out}`\n\n" + "\n".join(lines) + "\n")
     print("\n".join(lines))

@@ -32,6 +32,11 @@ def register_robot(spec: "RobotSpec") -> None:
     _REGISTERED[spec.name] = spec
 
 
+def unregister_robot(name: str) -> None:
+    """Forget an arm added with `register_robot` (installed and built-in arms stay)."""
+    _REGISTERED.pop(name, None)
+
+
 @functools.cache
 def _entry_points() -> tuple[tuple[str, str], ...]:
     from importlib.metadata import entry_points

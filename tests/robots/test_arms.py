@@ -98,11 +98,14 @@ def test_a_placement_out_of_reach_is_seen():
     """The check above can fail: the home posture's branch with the base moved 0.4 m back reaches only part of the line."""
     import dataclasses
 
-    from judgeopt.robots import register_robot
+    from judgeopt.robots import register_robot, unregister_robot
 
     far = dataclasses.replace(get_robot("ur3"), name="ur3_far", base_xyz=(-0.4, 0.0, 0.15))
     register_robot(far)
-    r = scoop_line("ur3_far")
+    try:
+        r = scoop_line("ur3_far")
+    finally:
+        unregister_robot("ur3_far")  # other tests list the arms
     assert not r.reached.all()
 
 
@@ -145,10 +148,14 @@ def test_joint_velocities_follow_ik_on_an_arm_whose_base_is_turned_from_the_worl
 
     from judgeopt.planners import joint_limits as jl
     from judgeopt.planners.problem import load_problem
-    from judgeopt.robots import register_robot
+    from judgeopt.robots import register_robot, unregister_robot
 
     register_robot(dataclasses.replace(get_robot("ur5"), name="ur5_turned", base_xyz=(-0.05, 0.03, 0.0), base_yaw=0.4))
-    jmap = jl.joint_map(load_problem("paper_sim").with_overrides(robot="ur5_turned"))
+    try:
+        jmap = jl.joint_map(load_problem("paper_sim").with_overrides(robot="ur5_turned"))
+        turned = pin.buildModelFromUrdf(str(robot_urdf(robot="ur5_turned")))
+    finally:
+        unregister_robot("ur5_turned")  # other tests list the arms
     h = 1e-5
     for y in (-0.1, 0.1, 0.3):
         start = jmap.configs[int(np.argmin(np.abs(jmap.grid - y)))]
@@ -156,7 +163,6 @@ def test_joint_velocities_follow_ik_on_an_arm_whose_base_is_turned_from_the_worl
         fd = ((q_plus - q_minus + np.pi) % (2 * np.pi) - np.pi) / (2 * h)
         _, rate, _, _ = jl.joint_kinematics(jmap.arm, y, start)
         np.testing.assert_allclose(rate, fd, atol=1e-5)
-    turned = pin.buildModelFromUrdf(str(robot_urdf(robot="ur5_turned")))
     data = turned.createData()
     pin.forwardKinematics(turned, data, np.zeros(6))
     assert abs(data.oMi[1].rotation[0, 1]) > 0.3  # the base really is turned in the written file

@@ -97,7 +97,7 @@ def test_sigterm_finishes_the_request_in_flight_and_exits_0(lone):
 
 def test_models_that_cannot_load_are_said_on_ready_and_to_a_plan_and_not_retried(tmp_path):
     broken = tmp_path / "broken.toml"
-    broken.write_text('base = "problems/paper_sim.toml"\n[models]\njudge = "models/no_such_judge"\n')
+    broken.write_text('base = "problems/paper_sim.toml"\n[models]\njudge = "models/nowhere"\n')
     args = [sys.executable, "-m", "judgeopt", "serve", "--port", "0", "--workers", "1", "--problem", str(broken),
             "--preload", "broken"]
     process = subprocess.Popen(args, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
@@ -109,7 +109,7 @@ def test_models_that_cannot_load_are_said_on_ready_and_to_a_plan_and_not_retried
         s.wait("the worker gives up", lambda h: not h["workers"], 60)
         for answer in (s.call("GET", "/v1/ready"), s.plan(QUICK)):
             assert answer.status == 503 and "could not load its models" in answer.body["error"]
-            assert "no_such_judge" in answer.body["error"]
+            assert "models/nowhere" in answer.body["error"]
         time.sleep(1)
         assert s.health()["workers"] == []  # not started again and again
     finally:
