@@ -216,6 +216,9 @@ def _rewrite(urdf: str, spec: RobotSpec) -> str:
         elif kind == "continuous":
             j.set("type", "revolute")
             limit = j.find("limit")
+            if limit is None:  # a continuous joint may omit it; a revolute one may not
+                raise RobotDescriptionError(f"robot {spec.name!r}: continuous joint {name} in {spec.description} has no "
+                                            "<limit effort velocity>: the controller and planners need its drive's limits")
             limit.set("lower", f"{-2 * math.pi:.9f}")
             limit.set("upper", f"{2 * math.pi:.9f}")
             changed = True
