@@ -53,9 +53,11 @@ def lower_bound(successes: int, n: int, confidence: float = CONFIDENCE) -> float
     return 1.0 - upper_bound(n - successes, n, confidence) if successes else 0.0
 
 
-def evidence_key(method: str, judge_sha256: str | None) -> str:
-    """Evidence is per planner and judge, over every limit and constraint set it was drawn at."""
-    return f"{method}@{(judge_sha256 or 'unknown')[:16]}"
+def evidence_key(method: str, judge_sha256: str | None, robot: str = DEFAULT_ROBOT) -> str:
+    """Evidence is per planner, judge and arm, over every limit and constraint set it was drawn at (the
+    default arm's keys read as before arms were chosen)."""
+    key = f"{method}@{(judge_sha256 or 'unknown')[:16]}"
+    return key if robot == DEFAULT_ROBOT else f"{key}@{robot}"
 
 
 @dataclass
@@ -122,7 +124,9 @@ def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: s
     "likely" then stays p >= 0.5, its risk unchecked. What an earlier annotation wrote is dropped first."""
     for key in ("raise_floor", "likely_at", "risk"):
         target.pop(key, None)
-    ev = evidence.get(evidence_key(method, judge_sha256))
+    robot = values.get("robot", DEFAULT_ROBOT)
+    # none on this arm: the default arm's, whose `outside` then says the plans were replayed on another arm
+    ev = evidence.get(evidence_key(method, judge_sha256, robot)) or evidence.get(evidence_key(method, judge_sha256))
     if ev is None:
         return
     beyond = ev.outside(values)
@@ -147,12 +151,12 @@ def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDEN
     """Per planner and judge, from replayed result rows whose calibrated p was computed by the
     calibration the evidence is stored with (calibration.calibrate_rows). Counted: plans with a
     p that hold their limits and lie inside the judge's data or a calibration's cover."""
-    by: dict[tuple[str, str | None], list[Mapping[str, Any]]] = {}
+    by: dict[tuple[str, str | None, str], list[Mapping[str, Any]]] = {}
     for r in rows:
         if r.get("method") and r.get("simulated_success") is not None and r.get("predicted_success") is not None:
-            by.setdefault((r["method"], r.get("judge_sha256")), []).append(r)
+            by.setdefault((r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT)), []).append(r)
     out = {}
-    for (method, sha), rs in sorted(by.items(), key=lambda kv: evidence_key(*kv[0])):
+    for (method, sha, robot), rs in sorted(by.items(), key=lambda kv: evidence_key(*kv[0])):
         y = np.array([bool(r["simulated_success"]) for r in rs])
         judge = np.array([r["predicted_success"] for r in rs], float)
         covered = np.array([bool(r.get("calibration_covers")) and r.get("calibrated_success") is not None for r in rs])
@@ -170,9 +174,9 @@ def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDEN
         values = [{**{k: v for k, v in r.get("limits", {}).items() if isinstance(v, (int, float))}, **r["environment"]}
                   for r in rs]
         common = set(values[0]).intersection(*values[1:])
-        out[evidence_key(method, sha)] = Evidence(
+        out[evidence_key(method, sha, robot)] = Evidence(
             method, sha, confidence, table,
             {"n": int(raised.sum()), "successes": int(y[raised].sum()), "floor": round(floor, 6)}, plans=len(rs),
             ranges={k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))] for k in sorted(common)},
-            robots=sorted({r.get("robot", DEFAULT_ROBOT) for r in rs}))
+            robots=[robot])
     return out

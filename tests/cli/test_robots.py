@@ -67,3 +67,26 @@ def test_collect_records_the_arm_and_a_dataset_knows_it(tmp_path, capsys):
                   meta={"settings": {"scene": {"x_home": 0.3}}})
     assert old.robot == "ur5"
     assert main(["collect", "--robot", "ur6", "--n", "2", "--out", str(tmp_path / "x.h5")]) == 5
+
+
+def test_evidence_is_counted_per_arm_and_one_arms_never_states_anothers_risk():
+    """Replayed rows of two arms make two evidences; a Kinova plan reads the Kinova's, and where only the
+    UR5's exists, its risk is unchecked, naming the arm the plans were replayed on."""
+    from judgeopt.verdict.risk import annotate, evidence_key, fit_evidence
+
+    def rows(robot, failures):
+        extra = {} if robot == "ur5" else {"robot": robot}
+        return [{"method": "direct", "judge_sha256": "ab" * 32, "simulated_success": k >= failures, "predicted_success": 0.999,
+                 "environment": {"y_obj": 0.2}, "limits": {"qdot_max": 1.0}, **extra} for k in range(300)]
+
+    ev = fit_evidence(rows("ur5", 0) + rows("kinova", 30))
+    assert set(ev) == {evidence_key("direct", "ab" * 32), evidence_key("direct", "ab" * 32, "kinova")}
+    assert ev[evidence_key("direct", "ab" * 32, "kinova")].grid[-1]["failures"] == 30
+    assert ev[evidence_key("direct", "ab" * 32)].grid[-1]["failures"] == 0
+    target: dict = {}
+    annotate(target, ev, "direct", "ab" * 32, {"y_obj": 0.2, "qdot_max": 1.0, "robot": "kinova"})
+    assert target["likely_at"] is None  # 30 of 300 failed on the Kinova: no threshold holds 2 %
+    only_ur5 = {evidence_key("direct", "ab" * 32): ev[evidence_key("direct", "ab" * 32)]}
+    target = {}
+    annotate(target, only_ur5, "direct", "ab" * 32, {"y_obj": 0.2, "qdot_max": 1.0, "robot": "panda"})
+    assert "likely_at" not in target and "robot panda (ur5)" in target["risk"]["evidence"]
