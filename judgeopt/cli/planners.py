@@ -301,10 +301,9 @@ def cmd_solve(args: argparse.Namespace) -> int:
                            "--calibration out")
     sim = None
     if args.simulate:
-        from judgeopt.tasks import get_task
+        from judgeopt.api import simulator
 
-        task = get_task(problem.task)
-        sim = task.simulator(task.robot_settings(problem.robot))
+        sim = simulator(problem.task, problem.robot)
     report = session.solve(planners, simulator=sim, world=told, warm_start=args.warm_start,
                            ranges=ranges_given(args, problem), range_case=args.range_case, suggest=args.suggest)
     writes = _outputs(args, problem, planners, report.results, several)

@@ -20,10 +20,9 @@ from judgeopt.robots import DEFAULT_ROBOT
 
 def simulator(task: str, robot: str = DEFAULT_ROBOT):
     """This process's simulator of the task's shipped scene, with the arm `robot`."""
-    from judgeopt.tasks import get_task
+    from judgeopt.api import simulator as new_simulator
 
-    t = get_task(task)
-    return worker_cache(f"sim:{task}:{robot}", lambda: t.simulator(t.robot_settings(robot)))
+    return worker_cache(f"sim:{task}:{robot}", lambda: new_simulator(task, robot))
 
 
 def planners(problem: Problem, methods: tuple[str, ...], judge: str | None = None, models_dir: str = "models",

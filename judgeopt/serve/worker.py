@@ -96,10 +96,9 @@ class Planning:
     def simulator(self, task: str, robot: str) -> Any:
         """The task's simulator with arm `robot`, made once per worker (as solve makes it)."""
         if (task, robot) not in self.simulators:
-            from judgeopt.tasks import get_task
+            from judgeopt.api import simulator
 
-            t = get_task(task)
-            self.simulators[task, robot] = t.simulator(t.robot_settings(robot))
+            self.simulators[task, robot] = simulator(task, robot)
         return self.simulators[task, robot]
 
     def plan(self, request: dict[str, Any], stage: Callable[[str], None]) -> tuple[int, bytes, dict[str, float]]:

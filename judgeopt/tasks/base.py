@@ -345,18 +345,15 @@ class Task(ABC):
     def robot_settings(self, robot: str, settings: Any = None) -> Any:
         """The task's settings (None: the shipped ones) with its arm `robot` (judgeopt.robots): the
         field `scene.robot` where the task's scene has one; a TaskError where it runs one arm only."""
-        import dataclasses
-
         from judgeopt.robots import DEFAULT_ROBOT, get_robot
 
         settings = self.settings() if settings is None else settings
-        scene = getattr(settings, "scene", None)
-        if scene is None or not hasattr(scene, "robot"):
+        if not hasattr(getattr(settings, "scene", None), "robot"):
             if robot == DEFAULT_ROBOT:
                 return settings
             raise TaskError(f"task {self.name!r} runs on the {DEFAULT_ROBOT} only; leave --robot out")
         get_robot(robot)  # a one-line error for an unknown arm
-        return dataclasses.replace(settings, scene=dataclasses.replace(scene, robot=robot))
+        return with_setting(settings, "scene.robot", robot)
 
     def arm_model(self, problem: Any = None) -> ArmModel | None:
         """The arm that executes `problem`'s plans, for the direct solve's joint-limit constraints
