@@ -16,7 +16,7 @@ import numpy as np
 import pinocchio as pin
 
 from judgeopt.robots import get_robot, register_robot
-from judgeopt.sim.controller import solve_ik
+from judgeopt.sim.controller import solve_ik, wrap_angles
 from judgeopt.tasks.scoop.placement import arm_model, scoop_line
 from judgeopt.tasks.scoop.scene import SceneConfig
 
@@ -55,7 +55,7 @@ def main() -> None:
                     home = solve_ik(base_model, tcp, pin.SE3(np.eye(3), home_point), seed)
                 except ValueError:
                     continue
-                home = (home + np.pi) % (2 * np.pi) - np.pi
+                home = wrap_angles(home)
                 s = score(scoop_line(unplaced.name, home=home, model=(base_model, tcp)))
                 if s > best[0]:
                     best = (s, (round(float(bx), 3) + 0.0, round(float(bz), 3) + 0.0, home.round(3).tolist()))

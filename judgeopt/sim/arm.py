@@ -13,7 +13,7 @@ import pinocchio as pin
 
 from judgeopt.sim.quiet import c_stdout_to_stderr, pb
 from judgeopt.sim.compiled import make_controller
-from judgeopt.sim.controller import ControllerConfig, TaskCommand, solve_ik
+from judgeopt.sim.controller import ControllerConfig, TaskCommand, solve_ik, wrap_angles
 from judgeopt.robots import DEFAULT_ROBOT, get_robot
 from judgeopt.robots.spec import RobotSpec
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
@@ -98,7 +98,7 @@ class ArmDriver:
         arm's home posture, which picks the IK's branch)."""
         q = solve_ik(self.controller.model, self.controller.tcp, target,
                      np.array(self.body.spec.home) if start is None else start)
-        return (q + np.pi) % (2 * np.pi) - np.pi
+        return wrap_angles(q)
 
     def reset(self, q0: np.ndarray) -> None:
         b = self.body

@@ -175,6 +175,11 @@ def _rotation_error(target: np.ndarray, R: np.ndarray) -> np.ndarray:
     return R.T if target is IDENTITY else target @ R.T
 
 
+def wrap_angles(q: np.ndarray) -> np.ndarray:
+    """Joint angles wrapped to [-pi, pi): how the driver places the arm, and every IK branch is compared."""
+    return (q + np.pi) % (2 * np.pi) - np.pi
+
+
 def solve_ik(model: pin.Model, frame: int, target: pin.SE3, q0: np.ndarray, iters: int = 200) -> np.ndarray:
     """Damped least-squares IK for the TCP pose (used once per rollout to place the arm)."""
     data = model.createData()

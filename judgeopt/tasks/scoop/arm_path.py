@@ -11,7 +11,7 @@ import numpy as np
 import pinocchio as pin
 
 from judgeopt.robots import get_robot
-from judgeopt.sim.controller import solve_ik
+from judgeopt.sim.controller import solve_ik, wrap_angles
 from judgeopt.sim.robot import robot_urdf
 from judgeopt.tasks.base import ArmModel
 from judgeopt.tasks.scoop.scene import SceneConfig
@@ -37,7 +37,7 @@ def scoop_arm(scene: SceneConfig | None = None) -> ArmModel:
     def ik(position: np.ndarray, start: np.ndarray | None = None) -> np.ndarray:
         # as ArmDriver.joints_for: angles wrapped to [-pi, pi)
         q = solve_ik(model, tcp, pose(position), home if start is None else start)
-        return (q + np.pi) % (2 * np.pi) - np.pi
+        return wrap_angles(q)
 
     joints = tuple(model.names[i] for i in range(1, model.njoints))
     if joints != spec.joints:

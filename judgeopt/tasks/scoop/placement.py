@@ -15,7 +15,7 @@ import numpy as np
 import pinocchio as pin
 
 from judgeopt.robots import get_robot
-from judgeopt.sim.controller import solve_ik
+from judgeopt.sim.controller import solve_ik, wrap_angles
 from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
 from judgeopt.tasks.scoop.rollout import Y_RANGE, RolloutConfig
 from judgeopt.tasks.scoop.scene import SceneConfig
@@ -74,7 +74,7 @@ def scoop_line(robot: str, scene: SceneConfig | None = None, step: float = 0.025
             except ValueError:
                 break
             q_prev = qs[0]
-            wrapped = [(q + np.pi) % (2 * np.pi) - np.pi for q in qs]
+            wrapped = [wrap_angles(q) for q in qs]
             margin[i] = min(float(np.min(np.minimum(q - m.lowerPositionLimit, m.upperPositionLimit - q)))
                             for q in wrapped)
             sigma[i] = min(float(np.linalg.svd(pin.computeFrameJacobian(m, data, q, tcp, pin.LOCAL_WORLD_ALIGNED),
