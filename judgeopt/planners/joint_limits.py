@@ -137,8 +137,9 @@ class JointMap:
 
     def binding(self, plan: Plan, scale: float) -> tuple[str, str, float]:
         """(joint, "velocity" or "torque", |value| / (scale * limit)) of the joint nearest to (or
-        furthest over) its scaled limit: what a suggestion names."""
-        qd, tau = self.exact(plan)
+        furthest over) its scaled limit: what a suggestion names; at the samples and halfway between them,
+        where `residuals` checks them (a joint over its limit only between samples is named as over it)."""
+        qd, tau = self.exact(plan, between=True)
         rv = (np.abs(qd) / (scale * self.velocity_limit)).max(axis=0, initial=0.0)
         rt = (np.abs(tau) / (scale * self.torque_limit)).max(axis=0)
         if rv.max() > rt.max():
