@@ -39,7 +39,7 @@ def _env_text(problem) -> str:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.report import markdown, summarise, write_report
     from judgeopt.evaluate.tables import run_table, table_planners, tables
-    from judgeopt.planners.calibration import calibrate_rows
+    from judgeopt.evaluate.band import rescore
     from judgeopt.planners.problem import ProblemError, load_problem
     from judgeopt.files import resolve
 
@@ -98,11 +98,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge).name}", judge=args.judge)
                 if r.judge or r.method in REGISTRY else r for r in rows]
     out = Path(args.out or f"out/evaluate/{args.table}")
-    calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    for rs in results.values():
-        calibrate_rows(rs, calibrators, problem.env_names)
+    for rs in results.values():  # with the calibration and evidence there are now (cached plans may predate them)
+        rescore(rs, calibrators, evidence, problem.env_names, args.risk)
     summary = summarise(rows, results)
     title = table.title.format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
                                f_min=problem.f_min, f_max=problem.f_max, env=_env_text(problem))
@@ -123,12 +123,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, markdown_sweep, parse_limit_set, plot_sweep,
                                          random_constraint_sets, random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
-    from judgeopt.planners.calibration import calibrate_rows
+    from judgeopt.evaluate.band import rescore
     from judgeopt.planners.constraint_ranges import corners
     from judgeopt.cli.planners import limit_ranges_from_args
     from judgeopt.planners.limits import wide_limits
     from judgeopt.planners.problem import load_problem
-    from judgeopt.planners.result import reassess
     from judgeopt.files import resolve
 
     problem = problem_of(args)
@@ -152,12 +151,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     methods = tuple(args.methods) if args.methods else None
     rows, notes = sweep_rows(problem, sets, vary, args.models, methods, args.baselines)
     out = Path(args.out or "out/evaluate/sweep")
-    calibrators = _calibrators(problem, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    for rs in results.values():  # with the calibration there is now (cached plans may predate it)
-        calibrate_rows(rs, calibrators, problem.env_names)
-        reassess(rs)
+    for rs in results.values():  # with the calibration and evidence there are now (cached plans may predate them)
+        rescore(rs, calibrators, evidence, problem.env_names, args.risk)
     summary = summarise_sweep(sets, rows, results, methods)
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
     at = f" at the limits of {problem.name}" if what == "constraint" else ""
@@ -168,8 +166,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_edge(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.edge import EdgeConfig, markdown_edge, plot_edge, run_edge, summarise_edge
-    from judgeopt.planners.calibration import calibrate_rows
-    from judgeopt.planners.result import reassess
+    from judgeopt.evaluate.band import rescore
 
     base = _problem(args)
     vary = _vary(base, args.vary) if args.vary else None
@@ -179,14 +176,13 @@ def cmd_edge(args: argparse.Namespace) -> int:
 
     methods = tuple(args.methods or default_planners())
     out = Path(args.out or "out/evaluate/edge")
-    calibrators = _calibrators(base, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence = _calibration(base, args.calibration)  # a bad file fails here, before any planning
     rows = []
     for q in args.qdot_max or (None,):
         problem = base if q is None else base.with_overrides(qdot_max=q)
         rows += run_edge(problem, cfg, methods, args.n, args.seed, out, vary, n_jobs=args.jobs,
                          scheduler=args.scheduler, chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    calibrate_rows(rows, calibrators, base.env_names)  # with the calibration there is now (cached plans may predate it)
-    reassess(rows)
+    rescore(rows, calibrators, evidence, base.env_names, args.risk)  # cached plans may predate the calibration
     summary = summarise_edge(rows, methods)
     speeds = ", ".join(f"{q:g}" for q in args.qdot_max) if args.qdot_max else f"{base.qdot_max:g}"
     env = _env_text(base) if vary is None else _env_text(base.with_overrides(**{vary[0]: list(vary[1])}))
@@ -343,11 +339,6 @@ def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[fl
         raise ProblemError(f"--vary {name}={lo:g},{hi:g}: need {plo:g} <= LO <= HI <= {phi:g} (the scene's physical "
                            "range, lower bound first)")
     return name, (lo, hi)
-
-
-def _calibrators(problem, path: str | None) -> dict:
-    """From --calibration, or the problem's file where it exists (none: no calibrated column)."""
-    return _calibration(problem, path)[0]
 
 
 def _calibration(problem, path: str | None) -> tuple[dict, dict]:
@@ -540,7 +531,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--constrained", type=float, metavar="SHARE", help="band: the share of settings that also draw a "
                    "constraint set (a_max, jerk_max, fdot_max, an early force cap; default 0.3)")
     e.add_argument("--ensemble", metavar="DIR", help="band: a judge ensemble whose members' p each plan records")
-    e.add_argument("--risk", type=risk_rate, default=RISK, metavar="R", help="band: the risk behind 'likely' (as solve --risk)")
+    e.add_argument("--risk", type=risk_rate, default=RISK, metavar="R", help="the risk behind 'likely' in the verdicts counted (as solve --risk)")
     e.add_argument("--n", type=positive, default=100, help="environments per row (band: settings)")
     e.add_argument("--problem", metavar="FILE", help="problem file (default problems/paper_sim.toml; compare: paper_sim_slow.toml, "
                    "q̇_max = 0.4)")
