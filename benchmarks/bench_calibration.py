@@ -24,7 +24,7 @@ import numpy as np
 from busy import Load
 
 from judgeopt.files import resolve
-from judgeopt.planners.calibration import NEIGHBOURS, inputs, load_calibration
+from judgeopt.verdict.calibration import NEIGHBOURS, inputs, load_calibration
 from judgeopt.planners.problem import LIMIT_NAMES, load_problem
 
 

@@ -15,7 +15,7 @@ _API = {
     "load_problem": "judgeopt.api", "load_planners": "judgeopt.api", "solve": "judgeopt.api",
     "load_judge": "judgeopt.api", "get_task": "judgeopt.api", "simulator": "judgeopt.api",
     "Problem": "judgeopt.planners.problem", "Plan": "judgeopt.trajectory", "PlanResult": "judgeopt.planners.result",
-    "SolveReport": "judgeopt.planners.session", "Client": "judgeopt.serve.client",
+    "SolveReport": "judgeopt.session.solve", "Client": "judgeopt.serve.client",
 }
 __all__ = [*_API, "__version__"]
 

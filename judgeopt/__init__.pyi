@@ -8,7 +8,7 @@ from judgeopt.api import simulator as simulator
 from judgeopt.api import solve as solve
 from judgeopt.planners.problem import Problem as Problem
 from judgeopt.planners.result import PlanResult as PlanResult
-from judgeopt.planners.session import SolveReport as SolveReport
+from judgeopt.session.solve import SolveReport as SolveReport
 from judgeopt.serve.client import Client as Client
 from judgeopt.trajectory import Plan as Plan
 

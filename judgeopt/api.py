@@ -29,7 +29,7 @@ from judgeopt.verdict.risk import RISK
 
 if TYPE_CHECKING:  # the types only: `import judgeopt` stays light
     from judgeopt.judge.model import Judge
-    from judgeopt.planners.session import SolveReport
+    from judgeopt.session.solve import SolveReport
     from judgeopt.planners.loaded import Planners
     from judgeopt.tasks.base import Task, TaskSimulator
 
@@ -53,7 +53,7 @@ def load_planners(problem: Problem | str | Path = "paper_sim", methods: Sequence
     return Planners.load(problem, methods, judge=judge, generator=generator, models_dir=models_dir)
 
 
-#: the options `solve` hands to the session (judgeopt.planners.session.solve), not to the problem
+#: the options `solve` hands to the session (judgeopt.session.solve.solve), not to the problem
 SOLVE_OPTIONS = ("warm_start", "ranges", "range_case", "suggest")
 
 
@@ -61,7 +61,7 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
           simulate: bool = True, world: Mapping[str, float] | None = None, threads: int | None = DEFAULT_THREADS,
           risk: float = RISK, **options: Any) -> SolveReport:
     """Plan for the problem's environment and give the `SolveReport` (results, notes, verdict,
-    suggestions) that `judgeopt solve` prints (judgeopt.planners.session.solve): `print(report)`
+    suggestions) that `judgeopt solve` prints (judgeopt.session.solve.solve): `print(report)`
     gives its verdict in a few lines, `report.summary()` a table, `report.plot(path)` its plans.
     `problem`: a Problem, a name, or planners already loaded (`load_planners`, to solve again without
     reloading); `simulate`: replay each plan in the task's scene, in `world` where it differs
@@ -78,7 +78,7 @@ def solve(problem: Problem | Planners | str | Path = "paper_sim", methods: Seque
     overrides = {k: v for k, v in options.items() if k not in SOLVE_OPTIONS}
     _check_overrides(given, overrides)  # before torch is imported
     options = {k: v for k, v in options.items() if k in SOLVE_OPTIONS}
-    from judgeopt.planners import session
+    from judgeopt.session import solve as session
     from judgeopt.planners.loaded import Planners
 
     if isinstance(problem, Planners):

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from judgeopt.planners.calibration import load_calibration
+from judgeopt.verdict.calibration import load_calibration
 
 RANGES = ((0.05, 0.5), (0.5, 1.0), (1.0, 3.0), (3.0, 3.5), (3.5, 4.0))  # Table 5's
 

@@ -27,6 +27,14 @@ def min_jerk_plan(y0: float, y1: float, t_move: float, force: float, horizon: in
     return scoop_plan(dt, y, yd, np.full(horizon + 1, force))
 
 
+def direct_result(predicted, **info):
+    """A direct plan (a min-jerk scoop) whose judge said `predicted`, with `info` as its planner set it."""
+    from judgeopt.planners.result import PlanResult
+
+    return PlanResult("direct", {"y_obj": 0.2, "mu": 2.0}, min_jerk_plan(-0.03, 0.2, 1.2, 12.0), predicted, "solved",
+                      0.1, info=dict(info))
+
+
 @pytest.fixture
 def module_copy(tmp_path, monkeypatch):
     """copy(module, old=None, new=None): `module`'s source as a new module of its own (a file in

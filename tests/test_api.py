@@ -75,7 +75,7 @@ def _report():
     """A SolveReport as `solve` gives one, built by hand: a replayed plan, a plan with a
     violated limit and no replay, and a planner that found no plan."""
     from judgeopt.planners.result import PlanResult
-    from judgeopt.planners.session import SolveReport
+    from judgeopt.session.solve import SolveReport
     from judgeopt.trajectory import Plan
 
     problem = judgeopt.load_problem("paper_sim")

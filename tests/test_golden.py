@@ -57,7 +57,7 @@ def test_shipped_generators_load(path):
 
 def test_shipped_remedies_and_calibration_load():
     from judgeopt.judge.ensemble import load_ensemble
-    from judgeopt.planners.calibration import load_calibration
+    from judgeopt.verdict.calibration import load_calibration
     from judgeopt.planners.trust_region import load_trust_region
 
     members, _ = load_ensemble(REPO / "models" / "judge_ensemble")

@@ -39,9 +39,8 @@ def _env_text(problem) -> str:
 def cmd_evaluate(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.report import markdown, summarise, write_report
     from judgeopt.evaluate.tables import run_table, table_planners, tables
-    from judgeopt.evaluate.band import rescore
-    from judgeopt.planners.problem import ProblemError, load_problem
-    from judgeopt.files import resolve
+    from judgeopt.verdict.rows import rescore
+    from judgeopt.planners.problem import ProblemError
 
     if args.n < 1:
         raise ProblemError(f"--n {args.n}: need at least one environment per row")
@@ -123,12 +122,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.sweep import (DEFAULT_LIMIT_SETS, markdown_sweep, parse_limit_set, plot_sweep,
                                          random_constraint_sets, random_limit_sets, summarise_sweep, sweep_rows)
     from judgeopt.evaluate.tables import run_table
-    from judgeopt.evaluate.band import rescore
+    from judgeopt.verdict.rows import rescore
     from judgeopt.planners.constraint_ranges import corners
     from judgeopt.cli.planners import limit_ranges_from_args
     from judgeopt.planners.limits import wide_limits
-    from judgeopt.planners.problem import load_problem
-    from judgeopt.files import resolve
 
     problem = problem_of(args)
     if args.judge:  # every planner against this judge (its calibration applies only where it has one)
@@ -166,7 +163,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_edge(args: argparse.Namespace) -> int:
     from judgeopt.evaluate.edge import EdgeConfig, markdown_edge, plot_edge, run_edge, summarise_edge
-    from judgeopt.evaluate.band import rescore
+    from judgeopt.verdict.rows import rescore
 
     base = _problem(args)
     vary = _vary(base, args.vary) if args.vary else None
@@ -199,7 +196,8 @@ def cmd_edge(args: argparse.Namespace) -> int:
 
 
 def cmd_band(args: argparse.Namespace) -> int:
-    from judgeopt.evaluate.band import BandConfig, default_band, markdown_band, plot_band, rescore, run_band, summarise_band
+    from judgeopt.evaluate.band import BandConfig, default_band, markdown_band, plot_band, run_band, summarise_band
+    from judgeopt.verdict.rows import rescore
     from judgeopt.files import atomic_write
     from judgeopt.planners.base import default_planners
 
@@ -253,8 +251,6 @@ def problem_of(args: argparse.Namespace, default: str = "problems/paper_sim.toml
 
 def _problem(args: argparse.Namespace) -> Any:
     """--problem with --judge, each --qdot-max checked against it before any planning."""
-    from judgeopt.files import resolve
-    from judgeopt.planners.problem import load_problem
 
     problem = problem_of(args)
     if args.judge:
@@ -344,7 +340,7 @@ def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[fl
 def _calibration(problem, path: str | None) -> tuple[dict, dict]:
     """The calibrators and held-out evidence of --calibration, or of the problem's file where it
     exists (none: no calibrated column, every risk unchecked), read once."""
-    from judgeopt.planners.calibration import load_calibration_file
+    from judgeopt.verdict.calibration import load_calibration_file
     from judgeopt.files import resolve
 
     if path is None and not (problem.calibration and resolve(problem.calibration).exists()):
@@ -380,7 +376,7 @@ def _argv(args: argparse.Namespace) -> list[str]:
 
 def _evaluated_rows(folders: list[str]) -> list[dict]:
     """Every plan row in `judgeopt evaluate` output folders (FOLDER/partial/*.json)."""
-    from judgeopt.planners.calibration import CalibrationError
+    from judgeopt.verdict.calibration import CalibrationError
 
     rows = []
     for folder in map(Path, folders):
@@ -398,7 +394,7 @@ def _evaluated_rows(folders: list[str]) -> list[dict]:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from judgeopt.planners.calibration import CalibrationError, load_calibration_file, save_calibration
+    from judgeopt.verdict.calibration import CalibrationError, load_calibration_file, save_calibration
 
     check_writable([args.out])
     if not args.folders and not args.evidence:
@@ -424,7 +420,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _fit_calibration(args: argparse.Namespace) -> dict:
     """Fit a calibrator per setting in the folders and print the table of them."""
-    from judgeopt.planners.calibration import CalibrationError, describe, fit_from_rows
+    from judgeopt.verdict.calibration import CalibrationError, describe, fit_from_rows
 
     rows = _evaluated_rows(args.folders)
     with_setting = [r for r in rows if r.get("setting") and (not args.methods or r.get("method") in args.methods)]
@@ -459,7 +455,7 @@ def _fit_calibration(args: argparse.Namespace) -> dict:
 def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     """The held-out evidence per planner and judge (judgeopt.verdict.risk), from plans the
     calibration was not fitted on, their p recomputed by that calibration; printed at the default risk."""
-    from judgeopt.planners.calibration import CalibrationError, calibrate_rows
+    from judgeopt.verdict.calibration import CalibrationError, calibrate_rows
     from judgeopt.verdict.risk import RISK, fit_evidence
 
     rows = [r for r in _evaluated_rows(args.evidence) if r.get("method") and r.get("environment")]

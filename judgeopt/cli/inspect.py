@@ -139,7 +139,7 @@ def _ensemble(p: Path) -> dict[str, Any]:
 
 def _calibration(p: Path) -> dict[str, Any]:
     """Its calibrators, and the held-out evidence behind "likely" per planner (at the default risk)."""
-    from judgeopt.planners.calibration import describe, load_calibration_file
+    from judgeopt.verdict.calibration import describe, load_calibration_file
     from judgeopt.verdict.risk import RISK
 
     calibrators, found = load_calibration_file(p)

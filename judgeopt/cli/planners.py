@@ -17,7 +17,7 @@ from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add
 from judgeopt.cli.examples import example_assignment, example_range, example_shift, example_variable, option
 from judgeopt.files import OutputWriteError, refuse_overwrite, resolve
 from judgeopt.field_text import field_type
-from judgeopt.planners.result import LEGEND, OUTSIDE
+from judgeopt.verdict.rules import LEGEND, OUTSIDE
 from judgeopt.verdict.risk import CONFIDENCE, RISK
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 
@@ -188,7 +188,7 @@ def solve_remote(args: argparse.Namespace) -> int:
     solve prints it (--json: the service's object as it came)."""
     import time
 
-    from judgeopt.planners.session import SolveReport
+    from judgeopt.session.solve import SolveReport
     from judgeopt.serve.client import Client, ServiceError
 
     t0 = time.perf_counter()
@@ -223,7 +223,7 @@ def _check_named_models(args: argparse.Namespace, problem: Problem) -> None:
     """The calibration, ensemble and trust model named on the command line, checked before any
     model loads: one missing, a folder where a file belongs or a file of another kind is one line."""
     if args.set_calibration:
-        from judgeopt.planners.calibration import load_calibration
+        from judgeopt.verdict.calibration import load_calibration
 
         load_calibration(resolve(problem.calibration))
     if args.set_ensemble:
@@ -252,7 +252,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
 
     if args.server:
         return solve_remote(args)
-    from judgeopt.planners import session
+    from judgeopt.session import solve as session
     from judgeopt.planners.feasible import check as check_constraints
     from judgeopt.planners.loaded import Planners
 
@@ -290,7 +290,7 @@ def cmd_solve(args: argparse.Namespace) -> int:
     if fallback:
         planners.notes.append(fallback)
     if args.set_calibration:  # asked for by name: another judge's is refused
-        from judgeopt.planners.calibration import for_judge
+        from judgeopt.verdict.calibration import for_judge
 
         for_judge(planners.calibration_file, planners.judge_meta["weights_sha256"], args.set_calibration)
     if args.set_calibration and not planners.calibrators:  # and it knows none of these planners
@@ -394,7 +394,7 @@ def print_report(report, *, simulate: bool, explain: bool, suggest: bool,
         for x in report.suggestions:
             print(f"  {x.text()}")
         if suggest:
-            from judgeopt.planners.suggest import searched
+            from judgeopt.session.suggest import searched
 
             if not report.suggestions:
                 print(f"  no single relaxation ({', '.join(searched(problem))}; each within the demonstrations' "
@@ -469,7 +469,7 @@ def _assignments(items: list[str] | None) -> dict[str, float]:
 
 def _infeasible(args: argparse.Namespace, problem: Problem, env: dict, exc: ProblemError) -> int:
     if args.json:
-        from judgeopt.planners.session import infeasible_json
+        from judgeopt.session.solve import infeasible_json
 
         print(json.dumps(infeasible_json(problem, env, exc)))
     else:
@@ -496,7 +496,6 @@ def margin_shifts(given: list[tuple[str, str]], problem: Problem) -> tuple[tuple
 def cmd_train_generator(args: argparse.Namespace) -> int:
     import numpy as np
 
-    import numpy as np
     import torch
 
     from judgeopt.judge.store import check_compatible, load_judge

@@ -27,7 +27,6 @@ from typing import TYPE_CHECKING, Any, Sequence
 import numpy as np
 
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError
-from judgeopt.robots import DEFAULT_ROBOT
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -152,27 +151,12 @@ def run_band(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], n: int
     return sorted((r for rs in done for r in rs), key=lambda r: r["env_index"])
 
 
-def rescore(rows: list[dict], calibrators: dict, evidence: dict, env_names: Sequence[str], risk: float) -> None:
-    """Each row's p and verdict as the given calibration and its evidence say at `risk` (rows
-    planned before either was fitted say what they say now)."""
-    from judgeopt.planners.calibration import calibrate_rows
-    from judgeopt.planners.result import reassess
-    from judgeopt.verdict.risk import annotate
-
-    calibrate_rows(rows, calibrators, env_names)
-    for r in rows:
-        if r.get("method"):
-            annotate(r, evidence, r["method"], r.get("judge_sha256"),
-                     {**r.get("limits", {}), **r["environment"], "robot": r.get("robot", DEFAULT_ROBOT)}, risk)
-    reassess(rows)
-
-
 def summarise_band(rows: Sequence[dict], methods: Sequence[str]) -> dict:
     """Per planner (evaluate.report.verdict_stats), and per setting for the plan to run (the
     recommended plan): called likely and failed; where any plan succeeded, called likely and
     succeeded; where none succeeded, called likely."""
     from judgeopt.evaluate.report import verdict_stats
-    from judgeopt.planners.result import recommended
+    from judgeopt.verdict.rules import recommended
     from judgeopt.verdict.risk import upper_bound
 
     settings: dict[int, list[dict]] = {}

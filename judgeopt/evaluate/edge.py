@@ -30,7 +30,7 @@ import numpy as np
 from judgeopt.evaluate.feasibility import SearchConfig, search
 from judgeopt.evaluate.report import cell, verdict_stats
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import overall_verdict
+from judgeopt.verdict.rules import overall_verdict
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -54,7 +54,7 @@ def edge_direction(problem: Problem, cfg: EdgeConfig) -> tuple[int, tuple[float,
     """+1 where a larger value of the limit makes the task easier (f_max, q̇_max), -1 where a
     smaller one does (f_min); and the span searched, hard end first. One-line errors for a
     limit the task cannot relax and a task without a feasibility search."""
-    from judgeopt.planners.suggest import relaxations
+    from judgeopt.session.suggest import relaxations
     from judgeopt.tasks import get_task
 
     task = get_task(problem.task)

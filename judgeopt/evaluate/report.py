@@ -233,7 +233,7 @@ def verdict_stats(rows: Sequence[dict], methods: Sequence[str], bins: Sequence[f
     (with the Clopper-Pearson upper bound on that rate), uncertain, unlikely / unlikely and
     succeeded, the outside-the-data, limit-breaking and calibrated counts, mean p, ECE and the
     reliability cells."""
-    from judgeopt.planners.result import BREAKS, OUTSIDE, UNCERTAIN
+    from judgeopt.verdict.rules import BREAKS, OUTSIDE, UNCERTAIN
     from judgeopt.verdict.risk import upper_bound
 
     planned = [r for r in rows if r.get("method") and r.get("verdict") is not None

@@ -31,7 +31,7 @@ from judgeopt.planners.constraint_ranges import CONSTRAINT_DRAWS, ConstraintRang
 from judgeopt.planners.constraint_ranges import corners
 from judgeopt.planners.problem import SECTIONS, Problem, ProblemError, load_problem
 from judgeopt.planners.constraints import is_constraint_key
-from judgeopt.planners.result import HOLD_TOL
+from judgeopt.verdict.risk import HOLD_TOL
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure

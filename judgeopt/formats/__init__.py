@@ -13,5 +13,5 @@ a newer file by name, with one line).
 | model files: JSON metadata + torch weights, one writer and one reader for every kind | judgeopt-judge, -generator | `formats.model_files` (used by `judgeopt.judge.store`, `judgeopt.planners.store`) |
 | the task frame a plan is exported along ([frame] of a problem file) | | `formats.frame` |
 | judge ensembles (a manifest of judges) | judgeopt-judge-ensemble | `judgeopt.judge.ensemble` (header checked here) |
-| calibration, trust region | judgeopt-calibration, -trust-region | `judgeopt.planners.calibration`, `judgeopt.planners.trust_region` |
+| calibration, trust region | judgeopt-calibration, -trust-region | `judgeopt.verdict.calibration`, `judgeopt.planners.trust_region` |
 """

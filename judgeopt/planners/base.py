@@ -22,7 +22,9 @@ is imported when the planner is first built).
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib
+import json
 import os
 import sys
 from abc import ABC, abstractmethod
@@ -30,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, ClassVar, Iterable, Iterator
 
 from judgeopt.errors import JudgeoptError
-from judgeopt.planners.problem import ProblemError
+from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 
 if TYPE_CHECKING:
     from judgeopt.planners.result import PlanResult
@@ -334,3 +336,19 @@ def to_build(methods: tuple[str, ...] | list[str]) -> tuple[str, ...]:
             found.add(s.name)
             todo += [*s.uses, *filter(None, [s.warm_start])]
     return tuple(n for n in REGISTRY if n in found)
+
+
+def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False) -> str:
+    """What a planner's outcomes depend on besides the environment: the method, the models'
+    weights (by hash, not by path) and every limit and solver option. `over_limits`: the same
+    without the limits, the key of a calibrator that takes the limits as inputs."""
+    # the task is left out: the judge's hash already tells tasks apart (and ids fitted before tasks stay valid)
+    skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
+    skip |= set(LIMIT_NAMES) if over_limits else set()
+    # the options only some planners read (the direct solve's target, the receding planner's period): its own
+    spec = REGISTRY.get(method)
+    skip |= set(PLANNER_OPTIONS) - set(spec.reads if spec is not None else ())
+    p = {k: v for k, v in problem.to_dict().items() if k not in skip}
+    blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
+                      sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]

@@ -42,7 +42,8 @@ from judgeopt.planners.base import BuildContext, Planner
 from judgeopt.planners.constraints import RATE_LIMITS, is_constraint_key, per_channel
 from judgeopt.planners.problem import LIMIT_NAMES, InfeasibleProblemError, Problem, ProblemError
 from judgeopt.planners.trust_region import TrustRegion, load_trust_region
-from judgeopt.planners.result import HOLD_TOL, PlanResult, constraint_residuals, infeasible_result, meets_target
+from judgeopt.verdict.risk import HOLD_TOL
+from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result, meets_target
 from judgeopt.trajectory import Plan
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs

@@ -24,7 +24,8 @@ from judgeopt.judge.model import Judge
 from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_planners, planner_names, spec_of,
                                     to_build, unknown, with_uses)
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
-from judgeopt.planners.result import PlanResult, assess, infeasible_result
+from judgeopt.planners.result import PlanResult, infeasible_result
+from judgeopt.verdict.rules import assess
 from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.trajectory import PlanError
 from judgeopt.verdict.risk import RISK, annotate as annotate_risk
@@ -41,7 +42,7 @@ class ChosenModels:
     def settings(self, methods: Sequence[str], over_limits: bool = False) -> dict[str, str]:
         """method -> calibration.setting_id over the models its entry names (over_limits: the id
         of the settings that differ from it only in their limits)."""
-        from judgeopt.planners.calibration import setting_id
+        from judgeopt.planners.base import setting_id
 
         return {m: setting_id(m, self.problem, {k: v for k, v in self.shas.items() if k in spec_of(m).models},
                               over_limits) for m in methods}
@@ -213,7 +214,7 @@ class Planners:
 
     def _settings(self) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.planners.calibration import load_calibration_file, lookup
+        from judgeopt.verdict.calibration import load_calibration_file, lookup
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
@@ -325,7 +326,7 @@ class Planners:
     def _annotate(self, r: PlanResult, env: dict[str, float]) -> PlanResult:
         """The result's setting (what its outcomes depend on), limits and calibrated success."""
         from judgeopt.judge.data_ranges import outside_data
-        from judgeopt.planners.calibration import inputs as calibration_inputs
+        from judgeopt.verdict.calibration import inputs as calibration_inputs
 
         limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
         r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,

@@ -24,7 +24,8 @@ import numpy as np
 from judgeopt.planners.base import BuildContext, ClosedLoopPlanner
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.problem import ProblemError
-from judgeopt.planners.result import PlanResult, assess
+from judgeopt.planners.result import PlanResult
+from judgeopt.verdict.rules import assess
 from judgeopt.trajectory import Plan
 
 

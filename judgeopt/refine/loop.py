@@ -236,7 +236,7 @@ def _pairs_of(ranges: LimitRanges | None) -> dict[str, tuple[float, float]]:
 
 def _round_figures(rows: list[dict], k: int) -> list[dict]:
     """Per method: success, prediction, and how the verdict (p >= LIKELY) did on the outcomes."""
-    from judgeopt.planners.result import LIKELY
+    from judgeopt.verdict.rules import LIKELY
 
     out = []
     for m in sorted({r["method"] for r in rows}):

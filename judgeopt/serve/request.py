@@ -81,7 +81,7 @@ def prepare(request: PlanRequest, problems: Mapping[str, Path]) -> Prepared:
     """The problem the request asks for, checked before any model loads; an infeasible one is an
     InfeasibleRequest carrying the command line's answer for it."""
     from judgeopt.planners.feasible import check
-    from judgeopt.planners.session import infeasible_json
+    from judgeopt.session.solve import infeasible_json
     from judgeopt.tasks import get_task
 
     path = problems.get(request.problem)

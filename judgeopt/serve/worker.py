@@ -71,7 +71,7 @@ class Planning:
         """The planners for a prepared request, loaded as `judgeopt solve` loads them (so the
         answer is the one solve gives: its notes, its generator) the first time, then reused; a
         copy whose notes are the request's own."""
-        from judgeopt.planners import session
+        from judgeopt.session import solve as session
         from judgeopt.planners.base import with_uses
         from judgeopt.planners.loaded import Planners
 
@@ -103,7 +103,7 @@ class Planning:
 
     def plan(self, request: dict[str, Any], stage: Callable[[str], None]) -> tuple[int, bytes, dict[str, float]]:
         """(HTTP status, the answer as JSON, each planner's solve time) for one request."""
-        from judgeopt.planners import session
+        from judgeopt.session import solve as session
         from judgeopt.serve.request import InfeasibleRequest, prepare
         from judgeopt.serve.schema import PlanRequest
 

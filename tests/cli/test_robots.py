@@ -7,7 +7,7 @@ import json
 import pytest
 
 from judgeopt.cli import main
-from judgeopt.planners.calibration import setting_id
+from judgeopt.planners.base import setting_id
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.robots import robot_names
 from judgeopt.verdict.risk import Evidence

@@ -7,7 +7,6 @@ or one boundary is the point."""
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest

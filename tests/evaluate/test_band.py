@@ -97,7 +97,7 @@ def _evidence_calibration(tmp_path, capsys):
 
 
 def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
-    from judgeopt.planners.calibration import load_calibration_file
+    from judgeopt.verdict.calibration import load_calibration_file
 
     cal = _evidence_calibration(tmp_path, capsys)
     (ev,) = load_calibration_file(cal)[1].values()

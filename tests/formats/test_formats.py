@@ -32,7 +32,7 @@ def test_one_header_check_for_every_file():
                                         ("models/trust_region_default.json", "trust")])
 def test_a_newer_file_is_refused_in_one_line(tmp_path, path, kind):
     from judgeopt.files import resolve
-    from judgeopt.planners.calibration import CalibrationError, load_calibration
+    from judgeopt.verdict.calibration import CalibrationError, load_calibration
     from judgeopt.planners.trust_region import TrustRegionError, load_trust_region
 
     doc = json.loads(resolve(path).read_text())

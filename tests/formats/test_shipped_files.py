@@ -21,7 +21,7 @@ def _tracked(*suffixes: str) -> list[str]:
 def _loader(fmt: str):
     from judgeopt.judge.ensemble import load_ensemble
     from judgeopt.judge.store import load_judge
-    from judgeopt.planners.calibration import load_calibration
+    from judgeopt.verdict.calibration import load_calibration
     from judgeopt.planners.store import load_generator
     from judgeopt.planners.trust_region import load_trust_region
 

@@ -150,7 +150,7 @@ def test_a_bad_objective_or_target_is_one_clear_error():
 
 # -- one plan for a set of environments ("somewhere in here") -------------------------------------
 def test_env_grid_spans_the_ranges_ends_included_and_refuses_what_the_judge_cannot_read():
-    from judgeopt.planners.session import env_grid
+    from judgeopt.session.solve import env_grid
 
     one = env_grid({"y_obj": 0.2, "mu": 2.0}, {"mu": (1.5, 2.5)}, ("y_obj", "mu"))
     assert [e["mu"] for e in one] == pytest.approx([1.5, 1.75, 2.0, 2.25, 2.5]) and {e["y_obj"] for e in one} == {0.2}
@@ -166,7 +166,7 @@ def test_a_plan_for_a_set_meets_the_target_in_the_worst_case_or_on_average(judge
     """The constraint holds per environment (worst) or for the mean probability (expected): the
     plan's probabilities over the set, each scored by the judge afterwards, say it did."""
     from judgeopt.planners.direct import judge_env
-    from judgeopt.planners.session import env_grid
+    from judgeopt.session.solve import env_grid
 
     problem = HARD.with_overrides(f_max=22.5, p_target=0.9)
     sets = env_grid(ENV, {"mu": (2.0, 3.0), "y_obj": (0.24, 0.26)}, ("y_obj", "mu"))

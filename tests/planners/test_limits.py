@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from judgeopt.files import resolve
-from judgeopt.planners.calibration import inputs
+from judgeopt.verdict.calibration import inputs
 from judgeopt.planners.limits import WIDE_LIMITS, LimitRanges, wide_limits
 from judgeopt.planners.problem import ProblemError, load_problem
 

@@ -10,7 +10,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from judgeopt.robots import DEFAULT_ROBOT, get_robot, robot_names
+from judgeopt.robots import get_robot, robot_names
 from judgeopt.robots.spec import RobotError
 from judgeopt.sim.compiled import CompiledController
 from judgeopt.sim.controller import ControllerConfig, HybridController, TaskCommand

@@ -150,7 +150,7 @@ def test_solve_server_imports_no_torch(service, tmp_path):
 @pytest.mark.parametrize("case", ["unlikely", "range"])
 def test_a_report_read_back_from_its_json_writes_the_same_json(case, capsys):
     """What `solve --server` prints from: the answer read back (plans, verdicts, suggestions)."""
-    from judgeopt.planners.session import SolveReport
+    from judgeopt.session.solve import SolveReport
 
     local = LOCAL.get(case) or solve_json(CASES[case][1], capsys)
     report = SolveReport.from_json(local)

@@ -14,7 +14,7 @@ import numpy as np
 
 from judgeopt.planners.base import GROUP_ALIASES, GROUPS, group, spec_of, with_uses
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.report_views import ReportViews
+from judgeopt.session.views import ReportViews
 
 #: samples per environment variable given as a range "somewhere in here" (env_grid): its ends and
 #: middle, or five points where only one variable is uncertain
@@ -101,7 +101,7 @@ class SolveReport(ReportViews):
     @property
     def recommended(self) -> Any:
         """The plan to run (`result.recommended`): one that holds the limits, then the highest p."""
-        from judgeopt.planners.result import recommended
+        from judgeopt.verdict.rules import recommended
 
         return recommended(self.results)
 
@@ -109,7 +109,7 @@ class SolveReport(ReportViews):
     def verdict(self) -> str:
         """The recommended plan's verdict: "likely", "unlikely", "outside the judge's data", or
         "infeasible" where the limits admit no plan."""
-        from judgeopt.planners.result import overall_verdict
+        from judgeopt.verdict.rules import overall_verdict
 
         return overall_verdict(self.results)
 
@@ -117,7 +117,7 @@ class SolveReport(ReportViews):
     def unlikely(self) -> bool:
         """No plan to run is likely (unlikely, or uncertain at the risk asked for): the exit code and
         the suggestions follow."""
-        from judgeopt.planners.result import UNCERTAIN
+        from judgeopt.verdict.rules import UNCERTAIN
 
         return self.verdict in ("unlikely", UNCERTAIN)
 
@@ -161,7 +161,7 @@ class SolveReport(ReportViews):
         the planners in memory know (a planner's own detail lines, the search's duration) is not
         in the object."""
         from judgeopt.planners.result import PlanResult
-        from judgeopt.planners.suggest import Suggestion
+        from judgeopt.session.suggest import Suggestion
 
         problem = Problem.from_dict(d["problem"])
         results = [PlanResult.from_json(r, problem.dt, problem.task) for r in d["results"]]
@@ -221,7 +221,7 @@ def solve(planners: Any, *, simulator: Any = None, world: Mapping[str, float] | 
     report = SolveReport(problem, env, planners, results,
                          {**{k: v for k, v in problem.world_env(env).items() if k not in env}, **world})
     if report.unlikely and suggest:
-        from judgeopt.planners.suggest import suggest as search
+        from judgeopt.session.suggest import suggest as search
 
         t0 = time.perf_counter()
         report.suggestions = search(planners, env, results)

@@ -12,7 +12,8 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
 from judgeopt.planners.problem import Problem
-from judgeopt.planners.result import PlanResult, overall_verdict, recommended
+from judgeopt.planners.result import PlanResult
+from judgeopt.verdict.rules import overall_verdict, recommended
 from judgeopt.planners.summary import SummaryTable
 
 if TYPE_CHECKING:

@@ -9,8 +9,8 @@ import pytest
 
 from judgeopt.files import REPO, resolve
 from judgeopt.cli import main
-from judgeopt.planners.calibration import (CalibrationError, calibrate_rows, env_fingerprint, fit, fit_from_rows,
-                                           load_calibration, save_calibration, setting_id)
+from judgeopt.verdict.calibration import (CalibrationError, calibrate_rows, env_fingerprint, fit, fit_from_rows, load_calibration, save_calibration)
+from judgeopt.planners.base import setting_id
 from judgeopt.planners.problem import load_problem
 
 ROOT = REPO  # the source checkout

@@ -28,8 +28,6 @@ import numpy as np
 from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
-from judgeopt.planners.base import PLANNER_OPTIONS, REGISTRY
-from judgeopt.planners.problem import LIMIT_NAMES, SECTIONS, Problem, ProblemError
 from judgeopt.verdict.risk import Evidence
 
 FORMAT, VERSION = "judgeopt-calibration", 2
@@ -45,24 +43,8 @@ COVER_QUANTILE = 0.95
 MAX_POINTS = 3000
 
 
-class CalibrationError(BadInput, ProblemError):
+class CalibrationError(BadInput, ValueError):
     """A calibration file that is missing, malformed, from another format or for another judge."""
-
-
-def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False) -> str:
-    """What a planner's outcomes depend on besides the environment: the method, the models'
-    weights (by hash, not by path) and every limit and solver option. `over_limits`: the same
-    without the limits, the key of a calibrator that takes the limits as inputs."""
-    # the task is left out: the judge's hash already tells tasks apart (and ids fitted before tasks stay valid)
-    skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
-    skip |= set(LIMIT_NAMES) if over_limits else set()
-    # the options only some planners read (the direct solve's target, the receding planner's period): its own
-    spec = REGISTRY.get(method)
-    skip |= set(PLANNER_OPTIONS) - set(spec.reads if spec is not None else ())
-    p = {k: v for k, v in problem.to_dict().items() if k not in skip}
-    blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
-                      sort_keys=True, default=str)
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
 def env_fingerprint(env: Iterable[float]) -> str:

@@ -9,7 +9,7 @@ import pytest
 
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.result import PlanResult
-from judgeopt.planners.suggest import RATE_REACH, RATE_RESOLUTION, Suggestion, constraint_relaxations
+from judgeopt.session.suggest import RATE_REACH, RATE_RESOLUTION, Suggestion, constraint_relaxations
 
 
 def test_only_the_constraints_that_are_set_and_finite_are_relaxed_up_to_their_reach():
@@ -47,7 +47,7 @@ def test_a_suggestion_names_what_to_relax_by_how_much_and_what_binds():
 
 
 def test_the_message_where_nothing_helps_lists_every_relaxation_tried():
-    from judgeopt.planners.suggest import searched
+    from judgeopt.session.suggest import searched
 
     assert searched(Problem()) == ["f_max", "qdot_max", "f_min"]
     assert searched(Problem(fdot_max=20.0, bounds=["f:0:9"])) == ["f_max", "qdot_max", "f_min", "fdot_max",

@@ -20,7 +20,8 @@ from typing import TYPE_CHECKING, Any
 
 from judgeopt.planners.constraints import RATE_LIMITS
 from judgeopt.planners.problem import Problem, ProblemError
-from judgeopt.planners.result import LIKELY, PlanResult, recommended, verdict_of
+from judgeopt.verdict.rules import LIKELY, recommended, verdict_of
+from judgeopt.planners.result import PlanResult
 from judgeopt.planners.base import spec_of
 from judgeopt.tasks import Task, get_task
 

@@ -9,8 +9,7 @@ import json
 import numpy as np
 import pytest
 
-from judgeopt.planners.calibration import (COVER_QUANTILE, NEIGHBOURS, RANGE_MARGIN, VERSION, Calibrator,
-                                           CalibrationError, fit, for_judge, load_calibration, save_calibration)
+from judgeopt.verdict.calibration import (COVER_QUANTILE, NEIGHBOURS, RANGE_MARGIN, VERSION, Calibrator, CalibrationError, fit, for_judge, load_calibration, save_calibration)
 
 
 def _inverse_band(n: int, seed: int = 0):

@@ -1,4 +1,4 @@
-"""A verdict on every plan, what would make an unlikely plan likely, and re-planning under other limits."""
+"""A verdict on every plan, the plan to run, and re-planning under other limits."""
 
 from __future__ import annotations
 
@@ -8,107 +8,26 @@ import json
 import numpy as np
 import pytest
 
-from judgeopt.files import REPO, resolve
+from conftest import direct_result
+from judgeopt.files import resolve
 from judgeopt.cli import main
-from judgeopt.planners import result as result_module
-from judgeopt.planners import suggest as suggest_module
+from judgeopt.verdict import rules as rules_module
 from judgeopt.planners.problem import load_problem
-from judgeopt.planners.result import LIKELY, PlanResult, assess
-from judgeopt.planners.suggest import relaxations, suggest
-from judgeopt.tasks import get_task
-
-RELAXATIONS = relaxations(get_task("scoop"))
-
-ROOT = REPO  # the source checkout
-
-
-def _result(predicted, **info) -> PlanResult:
-    from conftest import min_jerk_plan
-
-    return PlanResult("direct", {"y_obj": 0.2, "mu": 2.0}, min_jerk_plan(-0.03, 0.2, 1.2, 12.0), predicted, "solved",
-                      0.1, info=dict(info))
+from judgeopt.verdict.rules import LIKELY, assess
+from judgeopt.planners.result import PlanResult
 
 
 def test_the_probability_stood_behind_is_the_calibrated_one_where_it_exists():
-    judged = assess(_result(0.99))
+    judged = assess(direct_result(0.99))
     assert (judged.success_probability, judged.probability_source, judged.verdict) == (0.99, "judge", "likely")
-    calibrated = assess(_result(0.99, calibrated_success=0.2, calibration_covers=True))
+    calibrated = assess(direct_result(0.99, calibrated_success=0.2, calibration_covers=True))
     assert (calibrated.success_probability, calibrated.probability_source, calibrated.verdict) == (
         0.2, "calibrated", "unlikely")
-    outside = assess(_result(0.1, calibrated_success=0.7, calibration_covers=False))  # no extrapolated map
+    outside = assess(direct_result(0.1, calibrated_success=0.7, calibration_covers=False))  # no extrapolated map
     assert (outside.success_probability, outside.probability_source, outside.verdict) == (0.1, "judge", "unlikely")
-    assert assess(_result(LIKELY)).verdict == "likely" and assess(_result(LIKELY - 1e-9)).verdict == "unlikely"
+    assert assess(direct_result(LIKELY)).verdict == "likely" and assess(direct_result(LIKELY - 1e-9)).verdict == "unlikely"
     no_plan = assess(PlanResult("direct", {}, None, None, "infeasible", 0.0))
     assert no_plan.verdict is None and no_plan.to_json()["verdict"] is None
-
-
-# -- the suggestion search, on a planner whose answer is a known function of the limits ---------------
-@dataclasses.dataclass
-class FakePlanners:
-    """Stands in for Planners: success probability rises with f_max (0.5 at 20 N), not with q̇_max."""
-
-    problem: object
-    methods: tuple = ("direct",)
-    calls: list = dataclasses.field(default_factory=list)
-
-    def with_limits(self, **limits):
-        return dataclasses.replace(self, problem=self.problem.with_overrides(**limits))
-
-    def only(self, method):
-        return dataclasses.replace(self, methods=(method,))
-
-    def solve(self, env, simulator=None, guess=None):
-        self.calls.append(self.problem.f_max)
-        p = 1.0 / (1.0 + np.exp(-(self.problem.f_max - 20.0)))
-        return [assess(_result(float(p)))]
-
-
-def test_suggest_finds_the_smallest_relaxation_that_makes_a_plan_likely():
-    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
-    planners = FakePlanners(problem)
-    found = suggest(planners, {"y_obj": 0.2, "mu": 2.0}, planners.solve({}))
-    assert [s.limit for s in found] == ["f_max"]  # q̇_max and f_min change nothing here
-    f_max = next(r for r in RELAXATIONS if r.name == "f_max")
-    assert 20.0 <= found[0].value <= 20.0 + f_max.resolution  # the first value with p >= 0.5
-    assert found[0].result.success_probability >= LIKELY and found[0].p_at_bound > 0.99
-    assert "likely with f_max >= " in found[0].text() and found[0].to_json()["limit"] == "f_max"
-
-
-def test_a_suggestion_quotes_the_p_planned_at_the_value_it_prints():
-    """A threshold off the printed grid (20.0137 N, printed to 3 digits): rounding it to the nearest
-    printable value (20.0) would quote a p planned at 20.0137+ for a limit where p is 0.34."""
-    threshold = 20.0137
-
-    class Steep(FakePlanners):
-        def solve(self, env, simulator=None, guess=None):
-            self.calls.append(self.problem.f_max)
-            return [assess(_result(float(1.0 / (1.0 + np.exp(-50.0 * (self.problem.f_max - threshold))))))]
-
-    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
-    planners = Steep(problem)
-    found = suggest(planners, {"y_obj": 0.2, "mu": 2.0}, planners.solve({}))
-    s = next(x for x in found if x.limit == "f_max")
-    assert f">= {s.value:g} N" in s.text() and s.value == float(f"{s.value:.3g}")  # printed as planned
-    assert s.value >= threshold
-    again = planners.with_limits(f_max=s.value).solve({})[0]
-    assert s.result.success_probability == again.success_probability >= LIKELY
-    assert f"p = {again.success_probability:.2f}" in s.text()
-
-
-def test_printable_values_round_the_way_the_limit_relaxes_and_stay_within_reach():
-    from judgeopt.planners.suggest import printable
-
-    assert printable(20.0137, +1, 40.0) == 20.1 and printable(20.0137, -1, 0.0) == 20.0
-    assert printable(0.45301, +1, 1.0) == 0.454 and printable(0.453, +1, 1.0) == 0.453  # exact stays
-    assert printable(7.4349, -1, 5.0) == 7.43 and printable(0.99953, +1, 0.9996) == 0.9996  # not past reach
-
-
-def test_suggest_says_nothing_when_no_relaxation_helps(monkeypatch):
-    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12.0)
-    monkeypatch.setattr(result_module, "LIKELY", 1.01)  # nothing is ever likely
-    planners = FakePlanners(problem)
-    assert suggest(planners, {"y_obj": 0.2, "mu": 2.0}, []) == []
-    assert len(planners.calls) == len(RELAXATIONS)  # one screen at each bound, no bisection
 
 
 # -- the command line ----------------------------------------------------------------------------------
@@ -123,7 +42,7 @@ def test_solve_reports_a_verdict_and_its_source(capsys):
 
 @pytest.mark.parametrize("suggest_flag", ["--no-suggest", "--suggest"])
 def test_solve_exits_4_and_says_so_in_one_line_when_no_plan_is_likely(monkeypatch, capsys, suggest_flag):
-    monkeypatch.setattr(result_module, "LIKELY", 1.01)
+    monkeypatch.setattr(rules_module, "LIKELY", 1.01)
     rc = main(["solve", "--qdot-max", "0.4", "--method", "direct", "--no-simulate", suggest_flag])
     text = capsys.readouterr().out
     assert rc == 4
@@ -155,7 +74,7 @@ def test_with_limits_plans_what_a_fresh_load_for_those_limits_plans():
 
 
 def test_a_calibration_for_other_models_is_refused_in_one_line(capsys, tmp_path):
-    from judgeopt.planners.calibration import save_calibration
+    from judgeopt.verdict.calibration import save_calibration
 
     empty = save_calibration(tmp_path / "other.json", {})
     assert main(["solve", "--qdot-max", "0.4", "--method", "direct", "--no-simulate", "--calibration",
@@ -166,13 +85,14 @@ def test_a_calibration_for_other_models_is_refused_in_one_line(capsys, tmp_path)
 
 # -- the verdict on the plan to run, where planners disagree -------------------------------------------
 def _planned(method, p, violation=0.0, **info) -> PlanResult:
-    r = _result(p, **info)
+    r = direct_result(p, **info)
     r.method, r.residuals = method, {"qdot_max": violation}
     return assess(r)
 
 
 def test_the_plan_to_run_holds_the_limits_first_then_has_the_highest_p():
-    from judgeopt.planners.result import HOLD_TOL, overall_verdict, recommended
+    from judgeopt.verdict.risk import HOLD_TOL
+    from judgeopt.verdict.rules import overall_verdict, recommended
 
     likely, unlikely = _planned("amortized", 0.9), _planned("direct", 0.2)
     assert recommended([likely, unlikely]) is likely and overall_verdict([likely, unlikely]) == "likely"
@@ -191,14 +111,16 @@ def test_the_plan_to_run_holds_the_limits_first_then_has_the_highest_p():
 
 
 def test_a_plan_that_breaks_a_hard_limit_is_never_likely_whatever_its_p():
-    from judgeopt.planners.result import BREAKS, HOLD_TOL, reassess
+    from judgeopt.verdict.rules import BREAKS
+    from judgeopt.verdict.risk import HOLD_TOL
+    from judgeopt.verdict.rows import reassess
 
     over = _planned("amortized", 0.99, violation=48.0)  # over --fdot-max by 48 N/s
     assert over.verdict == BREAKS and over.to_json()["verdict"] == BREAKS
     checked = _planned("amortized", 0.2, violation=48.0, calibrated_success=0.97, calibration_covers=True)
     assert checked.probability_source == "calibrated" and checked.verdict == BREAKS
     assert _planned("amortized", 0.99, violation=HOLD_TOL).verdict == "likely"  # at the tolerance it holds
-    from judgeopt.planners.result import LEGEND
+    from judgeopt.verdict.rules import LEGEND
 
     assert f"'{BREAKS}' where the plan breaks a hard limit by more than {HOLD_TOL:g}" in LEGEND  # --explain says so
     row = over.to_json()
@@ -208,7 +130,7 @@ def test_a_plan_that_breaks_a_hard_limit_is_never_likely_whatever_its_p():
 
 
 def test_the_plan_to_run_is_ranked_by_the_p_stood_behind_calibrated_before_the_judges_own():
-    from judgeopt.planners.result import overall_verdict, recommended
+    from judgeopt.verdict.rules import overall_verdict, recommended
 
     # CMA-ES at the judge's 0.999997, never checked, against a direct plan calibrated at 0.9 (judge 0.6)
     cmaes = _planned("cmaes", 0.999997)
@@ -226,7 +148,8 @@ def test_the_plan_to_run_is_ranked_by_the_p_stood_behind_calibrated_before_the_j
 
 
 def test_outside_the_judges_data_the_verdict_says_so_unless_a_calibration_checked_it():
-    from judgeopt.planners.result import OUTSIDE, overall_verdict, reassess
+    from judgeopt.verdict.rules import OUTSIDE, overall_verdict
+    from judgeopt.verdict.rows import reassess
 
     far = ["y_obj = 0.35 m is outside the judge's data (0.10-0.28)"]
     judged = _planned("direct", 0.999, outside_judge_data=far)
@@ -244,7 +167,7 @@ def test_outside_the_judges_data_the_verdict_says_so_unless_a_calibration_checke
 
 def _report(monkeypatch, results):
     """`judgeopt solve` on a report whose results are given (the planners are loaded for real)."""
-    from judgeopt.planners import session
+    from judgeopt.session import solve as session
 
     def fake_solve(planners, **kw):
         return session.SolveReport(planners.problem, planners.problem.nominal_env(), planners, results)
@@ -273,13 +196,13 @@ def test_solve_exit_code_and_summary_follow_the_plan_to_run(monkeypatch, capsys,
     _report(monkeypatch, results)
     assert main(["solve", "--no-simulate", "--no-suggest", "--json"]) == code
     doc = json.loads(capsys.readouterr().out)
-    assert doc["verdict"] == {"mixed": "likely", "breaking": "unlikely", "outside": result_module.OUTSIDE}[case]
+    assert doc["verdict"] == {"mixed": "likely", "breaking": "unlikely", "outside": rules_module.OUTSIDE}[case]
     assert doc["recommended"] == {"mixed": "amortized", "breaking": "direct", "outside": "amortized"}[case]
 
 
 def test_suggestions_are_searched_only_when_the_plan_to_run_is_unlikely(monkeypatch):
-    from judgeopt.planners import session
-    from judgeopt.planners import suggest as suggest_mod
+    from judgeopt.session import solve as session
+    from judgeopt.session import suggest as suggest_mod
 
     problem = load_problem(resolve("problems/paper_sim.toml"))
     calls = []
@@ -323,7 +246,7 @@ def test_a_request_outside_the_judges_data_is_named_in_one_line(capsys, option, 
 
 def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
     """Evaluation rows re-judged after a calibration was fitted (what `evaluate` does with old plans)."""
-    from judgeopt.planners.result import reassess
+    from judgeopt.verdict.rows import reassess
 
     rows = [{"success_probability": None, "predicted_success": None, "verdict": None},
             {"success_probability": 0.99, "predicted_success": 0.99, "calibrated_success": 0.2,
@@ -346,7 +269,7 @@ def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
         (None, None, None), (0.2, "calibrated", "unlikely"), (0.99, "judge", "likely"), (0.3, "judge", "unlikely"),
         (0.8, "calibrated", "likely"), (0.3, "calibrated", "unlikely"), (0.6, "calibrated", "likely"),
         (0.95, "judge", "uncertain"), (0.995, "judge", "likely"), (0.995, "judge", "uncertain")]
-    from judgeopt.planners.result import stood_behind
+    from judgeopt.verdict.rules import stood_behind
 
     assert stood_behind(None, None, False) == (None, "") and stood_behind(None, 0.7, False) == (None, "")
 
