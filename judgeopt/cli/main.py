@@ -34,8 +34,7 @@ def cmd_collect(args: argparse.Namespace) -> int:
     given = {**dict(args.grid or []), **dict(args.range or [])}
     unknown = [k for k in given if k not in task.env_names]
     if unknown:
-        raise CLIError(f"{', '.join(unknown)}: not an environment variable of task {task.name!r} "
-                       f"(it has {', '.join(task.env_names)})")
+        raise CLIError(task.not_a_variable(', '.join(unknown)))
     grid = None
     if args.per_env:
         if task.demo_grid is None and not args.grid:

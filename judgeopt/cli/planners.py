@@ -87,11 +87,10 @@ def problem_from_args(args: argparse.Namespace) -> Problem:
         values["bounds"] = [*problem.bounds, *args.add_bounds]
     from judgeopt.tasks import get_task
 
-    names = get_task(problem.task).env_names
+    task = get_task(problem.task)
     for name, value in args.env or []:
-        if name not in names:
-            raise CLIError(f"--env {name}: not an environment variable of task {problem.task!r} (it has "
-                           f"{', '.join(names)})")
+        if name not in task.env_names:
+            raise CLIError(task.not_a_variable(f"--env {name}"))
         values[name] = value
     return problem.with_overrides(**values)
 

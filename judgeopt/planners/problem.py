@@ -381,8 +381,7 @@ class Problem:
             raise ProblemError(f"the environment{where} names no variables")
         unknown = [k for k in self.environment if k not in task.env_names]
         if unknown:  # a subset is allowed: a real setup may not know every variable (paper_real.toml)
-            raise ProblemError(f"environment {', '.join(unknown)}{where}: not a variable of task {task.name!r} "
-                               f"(it has {', '.join(task.env_names)})")
+            raise ProblemError(task.not_a_variable(f"environment {', '.join(unknown)}{where}"))
         for k, v in self.environment.items():
             if isinstance(v, tuple):
                 if not (len(v) == 2 and all(math.isfinite(x) for x in v) and v[0] <= v[1]):
@@ -391,8 +390,7 @@ class Problem:
                 raise ProblemError(f"environment {k} = {v!r}{where} must be a finite number")
         for k, v in self.world.items():
             if k not in task.env_names:
-                raise ProblemError(f"world {k}{where}: not a variable of task {task.name!r} (it has "
-                                   f"{', '.join(task.env_names)})")
+                raise ProblemError(task.not_a_variable(f"world {k}{where}"))
             if k in self.environment:
                 raise ProblemError(f"{k}{where} is in both [environment] (what the planners read) and [world] "
                                    "(what only the simulated world has): keep one")

@@ -96,11 +96,10 @@ def prepare(request: PlanRequest, problems: Mapping[str, Path]) -> Prepared:
     for name in ("objective", "robot"):
         if getattr(request, name) is not None:
             values[name] = getattr(request, name)
-    names = get_task(problem.task).env_names
+    task = get_task(problem.task)
     for name, value in request.environment.items():
-        if name not in names:
-            raise ProblemError(f"environment {name}: not an environment variable of task {problem.task!r} (it has "
-                               f"{', '.join(names)})")
+        if name not in task.env_names:
+            raise ProblemError(task.not_a_variable(f"environment {name}"))
         values[name] = as_text(value)  # as --NAME X or --NAME LO,HI: the problem reads and checks it
     problem = problem.with_overrides(**values)
     methods = checked_methods(request.methods, request.simulate)

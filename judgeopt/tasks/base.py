@@ -235,6 +235,10 @@ class Task(ABC):
     def env_names(self) -> tuple[str, ...]:
         return tuple(v.name for v in self.env_vars)
 
+    def not_a_variable(self, what: str) -> str:
+        """The one line for `what` (an option, a request's field) naming no environment variable of this task."""
+        return f"{what}: not an environment variable of task {self.name!r} (it has {', '.join(self.env_names)})"
+
     def channels_of(self, kind: str) -> tuple[Channel, ...]:
         return tuple(c for c in self.channels if c.kind == kind)
 
