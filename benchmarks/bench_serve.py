@@ -8,7 +8,7 @@ its level's count is reached. Memory is the server's and its workers' resident s
 /proc) when the running total of requests passes each --memory-at mark.
 
     python benchmarks/bench_serve.py [--levels 1 2 8] [--requests 300 300 400] [--soak 1000]
-                                     [--memory-at 500 2000] [--simulate 20]
+                                     [--memory-at 500 2000] [--simulate 20] [--receding 10]
 
 Prints one row per level side by side (with the CPU time the server and its workers spent per
 request: what bounds the throughput where the cores are shared), then the memory and the issue's
@@ -30,6 +30,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(REPO))
 
+from judgeopt.planners.receding import PLAN_KEPT  # noqa: E402
 from judgeopt.serve.client import Client, ServiceError  # noqa: E402
 
 
@@ -72,7 +73,7 @@ class Run:
 
     def level(self, clients: int, requests: int, body: dict) -> dict:
         """`requests` plans asked by `clients` threads at once: latencies (s), failures, wall time."""
-        latencies, failures, planner, left = [], [], [], [requests]
+        latencies, failures, planner, replans, left = [], [], [], [], [requests]
         lock = threading.Lock()
 
         def client() -> None:
@@ -89,6 +90,8 @@ class Run:
                     with lock:
                         latencies.append(dt)
                         planner.extend(r["solve_time_s"] for r in answer["results"])
+                        replans.extend((x["seconds"], x["status"] != PLAN_KEPT) for r in answer["results"]
+                                       for x in r.get("replan_log", ()))  # each check, and whether it re-solved
                 except ServiceError as exc:
                     with lock:
                         failures.append(str(exc))
@@ -105,7 +108,7 @@ class Run:
         wall = time.perf_counter() - t0
         cpu = [b - a for a, b in zip(cpu0, self.cpu_now())]
         return {"clients": clients, "n": requests, "latencies": latencies, "failures": failures, "wall": wall,
-                "planner": planner, "cpu_ms": [1e3 * c / max(requests, 1) for c in cpu]}
+                "planner": planner, "replans": replans, "cpu_ms": [1e3 * c / max(requests, 1) for c in cpu]}
 
 
 def percentile(xs: list[float], q: float) -> float:
@@ -142,6 +145,9 @@ def main() -> None:
     ap.add_argument("--workers", type=int, help="default: the server's (one per core)")
     ap.add_argument("--method", default="direct")
     ap.add_argument("--simulate", type=int, default=0, metavar="N", help="also N requests with simulate, one client")
+    ap.add_argument("--receding", type=int, default=0, metavar="N",
+                    help="also N requests of the receding planner (it re-plans while its plan runs in simulation), one "
+                         "client: each re-plan's solve time inside the service against the re-planning period")
     args = ap.parse_args()
     if len(args.requests) != len(args.levels):
         raise SystemExit("give one --requests count per level")
@@ -156,6 +162,8 @@ def main() -> None:
         if args.soak:
             soak = run.level(args.levels[-1], args.soak, body)
         sim = run.level(1, args.simulate, {**body, "simulate": True}) if args.simulate else None
+        receding = (run.level(1, args.receding, {**body, "methods": ["receding"], "simulate": True})
+                    if args.receding else None)
         workers = run.memory_now()["n_workers"]
     finally:
         server.terminate()
@@ -174,6 +182,18 @@ def main() -> None:
               f"{1e3 * percentile(lat, 95):>8.1f} {1e3 * percentile(lat, 99):>8.1f} {rate:>7.1f} {rate / base[0]:>10.2f} "
               f"{1e3 * statistics.median(r['planner']) if r['planner'] else float('nan'):>14.1f} "
               f"{r['cpu_ms'][0]:>18.1f} {r['cpu_ms'][1]:>7.1f} {label}")
+    if receding:
+        from judgeopt.files import resolve
+        from judgeopt.planners.problem import load_problem
+
+        period = load_problem(resolve("problems/paper_sim.toml")).replan_period
+        s = [t for t, _ in receding["replans"]]
+        print(f"receding planner through the service ({len(receding['latencies'])} requests, "
+              f"{len(receding['failures'])} failed, each a whole scoop simulated: p50 "
+              f"{1e3 * percentile(receding['latencies'], 50):.0f} ms): {len(s)} checks "
+              f"({sum(solved for _, solved in receding['replans'])} re-solved), each p50 {1e3 * percentile(s, 50):.1f} ms, "
+              f"p95 {1e3 * percentile(s, 95):.1f} ms, max {1e3 * max(s, default=float('nan')):.1f} ms against its period "
+              f"of {1e3 * period:.0f} ms (p95 / period {percentile(s, 95) / period:.2f})")
     for mark, m in sorted(run.memory.items()):
         print(f"after {mark} requests: server {m['server']:.0f} MB + workers {m['workers']:.0f} MB = "
               f"{m['server'] + m['workers']:.0f} MB resident")
