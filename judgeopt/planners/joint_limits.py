@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from judgeopt.planners.problem import ProblemError
+from judgeopt.planners.problem import InfeasibleProblemError, ProblemError
 from judgeopt.tasks import get_task
 from judgeopt.tasks.base import ArmModel
 from judgeopt.trajectory import Plan
@@ -154,15 +154,26 @@ def _column(plan: Plan, kind: str) -> int:
 
 
 def tabulate(arm: ArmModel, lo: float, hi: float, seed: float, step: float = GRID_STEP,
-             margin: float = GRID_MARGIN) -> JointMap:
+             margin: float = GRID_MARGIN, robot: str | None = None) -> JointMap:
     """The JointMap of `arm` over [lo, hi] (and `margin` beyond, where the arm reaches). The IK
     branch is the one the arm holds at `seed` (the plan's start, where the simulator places it from
     the home posture), followed continuously outwards: the arm moves, it does not jump branches
-    (IK from the home posture alone switches the UR5 to another branch near y = 0.4 m)."""
+    (IK from the home posture alone switches the UR5 to another branch near y = 0.4 m). A position
+    in [lo, hi] the arm cannot hold the tool at: InfeasibleProblemError naming it and the fix."""
+    def unreachable(y: float, what: str) -> InfeasibleProblemError:
+        return InfeasibleProblemError(
+            f"{f'robot {robot!r}' if robot else 'the arm'} cannot hold the tool at {what} {y:.4g} m (its IK does not "
+            f"converge there), within the positions [q_min, q_max] = [{lo:g}, {hi:g}] m: keep the positions on the "
+            f"segment it reaches (`judgeopt robots {robot or 'NAME'} --reach`), or place the arm nearer the line (its "
+            "base_xyz)", ["limits.q_min/q_max", "robot"])
+
     n = int(np.ceil((hi - lo + 2 * margin) / step)) + 1
     grid = np.linspace(lo - margin, hi + margin, n)
     i0 = int(np.argmin(np.abs(grid - seed)))
-    q_seed = arm.ik(np.array([seed]), None)
+    try:
+        q_seed = arm.ik(np.array([seed]), None)
+    except ValueError:
+        raise unreachable(seed, "the start q0 =") from None
     found: dict[int, tuple] = {}
     for order in (range(i0, n), range(i0 - 1, -1, -1)):
         start = q_seed
@@ -172,8 +183,7 @@ def tabulate(arm: ArmModel, lo: float, hi: float, seed: float, step: float = GRI
                 found[i] = joint_kinematics(arm, y, start)
             except ValueError:
                 if lo <= y <= hi:
-                    raise ProblemError(f"the arm cannot reach position {y:.4g} m within [q_min, q_max] = "
-                                       f"[{lo:g}, {hi:g}]: no joint limits can be held there") from None
+                    raise unreachable(y, "position") from None
                 break
             start = found[i][0]
     idx = sorted(found)
@@ -199,5 +209,5 @@ def joint_map(problem: Any) -> JointMap:
         if arm is None:
             raise ProblemError(f"joint_limit_scale: task {task.name!r} has no arm model (Task.arm_model), "
                                "so its joint limits cannot be held; leave joint_limit_scale out")
-        _CACHE[key] = tabulate(arm, lo, hi, q0)
+        _CACHE[key] = tabulate(arm, lo, hi, q0, robot=getattr(problem, "robot", None))
     return _CACHE[key]
