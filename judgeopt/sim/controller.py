@@ -135,7 +135,7 @@ class HybridController:
         xdd = S * (self.kp * err + self.kv * (cmd.velocity - self.velocity))
         if S[2] < 1.0:
             self._add_force_terms(xdd, q, J, S, cmd.force_z)
-        # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
+        # tau = M J^-1 xdd + h(q, qd) (J# xdd on more than 6 joints), computed as inverse dynamics (RNEA)
         qdd = _dgesv()(J, xdd)[2] if J.shape[1] == 6 else self._redundant(J, xdd, q, v)
         tau = _rnea(model, data, q, v, qdd)
         return _minimum(_maximum(tau, self._tau_min), self.tau_max)
