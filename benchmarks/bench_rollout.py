@@ -11,7 +11,7 @@
 3. With --focus JUDGE: the same for an active collection (`collect --focus`), timed right after
    the plain one: what judging the candidates adds per kept demonstration.
 
-    python benchmarks/bench_rollout.py [--rollouts 20] [--demos 60] [--jobs -1] [--focus models/judge_demos_tcn]
+    python benchmarks/bench_rollout.py [--rollouts 20] [--demos 60] [--jobs -1] [--focus models/judge_demos_tcn] [--robot ur5]
 
 Timings on a shared machine are noisy: compare the ratio, measured side by side, across runs.
 """
@@ -29,14 +29,17 @@ from judgeopt.data.collect import CollectionSpec, collect
 from judgeopt.judge.focus import JudgeFocus
 from judgeopt.tasks.scoop.commands import random_command
 from judgeopt.sim.quiet import pb
+from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.tasks.scoop.rollout import Simulator
+from judgeopt.tasks.scoop.scene import SceneConfig
 
 
-def rollout_rates(n: int, repeats: int = 3) -> tuple[float, float]:
+def rollout_rates(n: int, repeats: int = 3, robot: str = DEFAULT_ROBOT) -> tuple[float, float]:
     """Steps per second closed loop and bare physics (replaying the closed loop's torques),
     timed rollout by rollout in turn, so both see the same load on a shared machine; the
-    fastest of `repeats` timings of each rollout counts."""
-    sim = Simulator()
+    fastest of `repeats` timings of each rollout counts. On the arm `robot`: a 7-joint arm's
+    step solves for its null space as well."""
+    sim = Simulator(SceneConfig(robot=robot))
     rng = np.random.default_rng(0)
     plans = [random_command(rng, 0.19) for _ in range(n)]
     torques = recorded_torques(sim, plans)  # rollouts are deterministic: the timed ones give the same
@@ -101,8 +104,9 @@ def main() -> None:
     ap.add_argument("--demos", type=int, default=60, help="0: skip the collection benchmark")
     ap.add_argument("--jobs", type=int, default=-1)
     ap.add_argument("--focus", metavar="JUDGE", help="also time an active collection focused by this judge")
+    ap.add_argument("--robot", default=DEFAULT_ROBOT, help="the arm of the rollout-rate benchmark (`judgeopt robots`)")
     a = ap.parse_args()
-    closed, bare = rollout_rates(a.rollouts)
+    closed, bare = rollout_rates(a.rollouts, robot=a.robot)
     print(f"closed-loop (controller + physics): {closed:8.0f} steps/s")
     print(f"bare physics, same scene          : {bare:8.0f} steps/s")
     print(f"ratio closed/bare                 : {closed / bare:8.2f}   (target >= 0.8)")

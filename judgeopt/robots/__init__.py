@@ -21,6 +21,7 @@ BUILTIN = {
     "ur10": "judgeopt.robots.arms.ur10:ARM",
     "panda": "judgeopt.robots.arms.panda:ARM",
     "kinova": "judgeopt.robots.arms.kinova:ARM",
+    "xarm7": "judgeopt.robots.arms.xarm7:ARM",
 }
 DEFAULT_ROBOT = "ur5"
 

@@ -86,7 +86,8 @@ def step_functions(model_data: dict) -> tuple[cs.Function, cs.Function]:
             lam_inv_z = cs.mtimes(J, _cholesky_solve(chain.mass_matrix(model_data, kin), J[2, :].T))
             xdd = cs.vertcat(xdd[:2], xdd[2] + (1.0 - S[2]) * g["kf"][2] * (f_new[2] - fz), xdd[3:])
             xdd = xdd - lam_inv_z * fz
-        tau = chain.rnea(model_data, kin, v, cs.solve(J, xdd) if nv == 6 else _redundant(J, xdd, g, v))
+        qdd = cs.solve(J, xdd) if nv == 6 else _redundant(J, xdd, g, v, chain.mass_matrix(model_data, kin))
+        tau = chain.rnea(model_data, kin, v, qdd)
         tau = cs.fmin(cs.fmax(tau, -g["tau_max"]), g["tau_max"])
         name = "step_force" if force_terms else "step_free"
         # cse: the mass matrix and RNEA share the bodies' world inertias (15 % fewer operations)
@@ -95,15 +96,17 @@ def step_functions(model_data: dict) -> tuple[cs.Function, cs.Function]:
     return fns[0], fns[1]
 
 
-def _redundant(J: cs.SX, xdd: cs.SX, g: dict, v: cs.SX) -> cs.SX:
-    """HybridController._redundant: J+ xdd plus the null space's posture regulation."""
-    Jt_inv = cs.mtimes(J.T, cs.inv(cs.mtimes(J, J.T)))
+def _redundant(J: cs.SX, xdd: cs.SX, g: dict, v: cs.SX, M: cs.SX) -> cs.SX:
+    """HybridController._redundant: the dynamically consistent J# = M^-1 J^T Lambda times xdd, plus the
+    null space's posture regulation."""
+    Minv_Jt = _cholesky_solve(M, J.T)
     posture = -g["null_gains"][0] * (g["q"] - g["q_rest"]) - g["null_gains"][1] * v
-    return cs.mtimes(Jt_inv, xdd) + posture - cs.mtimes(Jt_inv, cs.mtimes(J, posture))
+    return posture + cs.mtimes(Minv_Jt, cs.solve(cs.mtimes(J, Minv_Jt), xdd - cs.mtimes(J, posture)))
 
 
 def _cholesky_solve(M: cs.SX, b: cs.SX) -> cs.SX:
-    """M^-1 b for a symmetric positive definite M, by its Cholesky factor (M = L L^T)."""
+    """M^-1 b for a symmetric positive definite M and one or more columns b, by M's Cholesky factor
+    (M = L L^T), factored once."""
     n = M.size1()
     L = [[None] * n for _ in range(n)]
     for j in range(n):
@@ -111,13 +114,16 @@ def _cholesky_solve(M: cs.SX, b: cs.SX) -> cs.SX:
         L[j][j] = cs.sqrt(d)
         for i in range(j + 1, n):
             L[i][j] = (M[i, j] - sum((L[i][k] * L[j][k] for k in range(j)), cs.SX(0))) / L[j][j]
-    y = [None] * n
-    for i in range(n):
-        y[i] = (b[i] - sum((L[i][k] * y[k] for k in range(i)), cs.SX(0))) / L[i][i]
-    x = [None] * n
-    for i in reversed(range(n)):
-        x[i] = (y[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), cs.SX(0))) / L[i][i]
-    return cs.vertcat(*x)
+    columns = []
+    for c in range(b.size2()):
+        y = [None] * n
+        for i in range(n):
+            y[i] = (b[i, c] - sum((L[i][k] * y[k] for k in range(i)), cs.SX(0))) / L[i][i]
+        x = [None] * n
+        for i in reversed(range(n)):
+            x[i] = (y[i] - sum((L[k][i] * x[k] for k in range(i + 1, n)), cs.SX(0))) / L[i][i]
+        columns.append(cs.vertcat(*x))
+    return cs.horzcat(*columns)
 
 
 def _wrapper(free: cs.Function, force: cs.Function, nv: int) -> str:

@@ -29,7 +29,7 @@ _joint_jacobians, _frame_placement, _frame_jacobian = (pin.computeJointJacobians
 _crba, _rnea, _log3 = pin.crba, pin.rnea, pin.log3
 _cholesky_decompose, _cholesky_solve = pin.cholesky.decompose, pin.cholesky.solve
 _LOCAL_WORLD_ALIGNED = pin.LOCAL_WORLD_ALIGNED
-_minimum, _maximum = np.minimum, np.maximum
+_minimum, _maximum, _solve = np.minimum, np.maximum, np.linalg.solve
 
 #: the default commanded rotation (tool level); read-only, so every command can share it
 IDENTITY = np.eye(3)
@@ -135,17 +135,24 @@ class HybridController:
         xdd = S * (self.kp * err + self.kv * (cmd.velocity - self.velocity))
         if S[2] < 1.0:
             self._add_force_terms(xdd, q, J, S, cmd.force_z)
-        # tau = M J^-1 xdd + h(q, qd), computed as inverse dynamics (RNEA)
+        # tau = M J^-1 xdd + h(q, qd) (J# xdd on more than 6 joints), computed as inverse dynamics (RNEA)
         qdd = _dgesv()(J, xdd)[2] if J.shape[1] == 6 else self._redundant(J, xdd, q, v)
         tau = _rnea(model, data, q, v, qdd)
         return _minimum(_maximum(tau, self._tau_min), self.tau_max)
 
     def _redundant(self, J: np.ndarray, xdd: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
-        """Joint accelerations of an arm with more than 6 joints: J+ xdd (the least-norm ones that
-        give xdd), plus the null space's posture regulation, which moves no tool coordinate."""
-        Jt_inv = J.T @ np.linalg.inv(J @ J.T)
+        """Joint accelerations of an arm with more than 6 joints: J# xdd plus the null space's posture
+        regulation, which moves no tool coordinate.
+
+        J# = M^-1 J^T Lambda is the dynamically consistent inverse (Khatib): the torque M J# xdd is
+        J^T Lambda xdd, and no wrench at the tool (the plate's reaction, the force feed-forward)
+        drives the self-motion. The plain J+ = J^T (J J^T)^-1 leaves (I - J+ J) M^-1 J^T F of a
+        tool wrench F in the null space: pressing 20 N, the xArm7's light wrist spun its joints to
+        their speed limits within 40 ms (docs/guides/arm.md, "Seven joints")."""
+        M = _crba(self.model, self.data, q)
+        Minv_Jt = _solve(np.triu(M) + np.triu(M, 1).T, J.T)
         posture = -self.config.null_kp * (q - self.q_rest) - self.config.null_kv * v
-        return Jt_inv @ xdd + posture - Jt_inv @ (J @ posture)
+        return posture + Minv_Jt @ _solve(J @ Minv_Jt, xdd - J @ posture)
 
     def _add_force_terms(self, xdd: np.ndarray, q: np.ndarray, J: np.ndarray, S: np.ndarray, force_z: float) -> None:
         """Force control in z, in place: the wrench on the environment is F_cmd = (0, 0, -f_z);

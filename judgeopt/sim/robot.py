@@ -181,12 +181,26 @@ def correct_inertias(urdf: str, inertias: dict[str, Correction]) -> str:
     return urdf
 
 
+def undamped(joint: ET.Element) -> bool:
+    """Set a joint's `<dynamics damping>` to zero; whether it was not. Why: Pinocchio's model (the controller's
+    M and h, the plant = model checks) has no joint damping, and PyBullet applies it as an explicit force,
+    which diverges once the time step times an eigenvalue of M^-1 D passes 2: the xArm7 file's 2-10 N m s
+    on light wrist joints give 2.8 at 1 ms, and the arm's joint 7 then flips between its speed limits every
+    step (docs/guides/arm.md, "Seven joints")."""
+    dynamics = joint.find("dynamics")
+    if dynamics is None or float(dynamics.get("damping", 0.0)) == 0.0:
+        return False
+    dynamics.set("damping", "0")
+    return True
+
+
 def _rewrite(urdf: str, spec: RobotSpec) -> str:
     """What an arm other than the plain UR5 needs, on the parsed file: its limits corrected, every
     movable joint that is not an arm joint (fingers, a gripper) fixed, the links `spec.remove`
     names dropped with what hangs on them (a hand the spatula replaces), continuous arm joints
     made revolute over +-2 pi (PyBullet and Pinocchio then agree on one angle per joint), and the
-    base placed in the world by a fixed joint from a new root link. Unchanged text where none applies."""
+    base placed in the world by a fixed joint from a new root link, and every joint's viscous damping
+    removed (`undamped`). Unchanged text where none applies."""
     root = ET.fromstring(urdf)
     joints = {j.get("name"): j for j in root.findall("joint")}
     missing = [j for j in (*spec.joints, *spec.velocity_limits, *spec.effort_limits) if j not in joints]
@@ -222,6 +236,7 @@ def _rewrite(urdf: str, spec: RobotSpec) -> str:
             limit.set("lower", f"{-2 * math.pi:.9f}")
             limit.set("upper", f"{2 * math.pi:.9f}")
             changed = True
+        changed |= undamped(j)
         for table, attribute in ((spec.velocity_limits, "velocity"), (spec.effort_limits, "effort")):
             if name in table:
                 j.find("limit").set(attribute, f"{float(table[name].value):g}")

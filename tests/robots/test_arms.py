@@ -85,6 +85,74 @@ def test_the_null_space_term_moves_no_tool_coordinate():
     np.testing.assert_allclose(J @ far, xdd, atol=1e-9)
 
 
+REDUNDANT = [r for r in ARMS if len(get_robot(r).joints) > 6]
+
+
+@pytest.mark.parametrize("robot", ARMS)
+def test_the_plant_has_no_joint_damping(robot):
+    """PyBullet applies a joint's damping D explicitly, which diverges once dt times an eigenvalue of
+    M^-1 D passes 2 (the xArm7 file's: 2.8), and the controller's model has none: the written URDF has none."""
+    from judgeopt.sim.arm import connect, load_arm
+    from judgeopt.sim.quiet import pb
+
+    client = connect(1e-3, 50)
+    try:
+        body = load_arm(client, SpatulaGeometry(), visual_shapes=False, robot=robot)
+        assert [pb.getJointInfo(body.robot, j, physicsClientId=client)[6] for j in body.arm_joints] == [0.0] * len(
+            body.arm_joints)
+    finally:
+        pb.disconnect(physicsClientId=client)
+
+
+@pytest.mark.parametrize("robot", REDUNDANT)
+def test_a_tool_wrench_drives_no_self_motion(robot):
+    """On a 7-joint arm the task acceleration Lambda^-1 F of a tool wrench F (the pressing force's
+    feed-forward) becomes the torque J^T F and nothing else: J# is the dynamically consistent inverse.
+    With the plain pseudo-inverse the difference drove the xArm7's wrist to its speed limits in contact."""
+    urdf = robot_urdf(SpatulaGeometry(), robot=robot)
+    ctl = HybridController(urdf, PAYLOAD, config=ControllerConfig(step="python"))
+    q = np.array(get_robot(robot).home)
+    ctl.reset(q)  # at rest at the rest posture: no posture term
+    data = ctl.model.createData()
+    J = pin.computeFrameJacobian(ctl.model, data, q, ctl.tcp, pin.LOCAL_WORLD_ALIGNED)
+    M = pin.crba(ctl.model, data, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    F = np.array([1.0, -2.0, -20.0, 0.3, 0.1, -0.2])
+    qdd = ctl._redundant(J, J @ np.linalg.solve(M, J.T @ F), q, np.zeros(q.size))
+    np.testing.assert_allclose(M @ qdd, J.T @ F, atol=1e-9 * np.abs(J.T @ F).max())
+
+
+@pytest.mark.parametrize("robot", REDUNDANT)
+def test_a_seven_joint_arm_holds_still_in_the_air_and_pressing(robot):
+    """Closed loop (compiled step, PyBullet), 0.3 s each: the blade held 5 cm above the plate, then pressed onto
+    it with 20 N (ramped over 0.1 s); no joint moves faster than 0.2 rad/s. Before the two fixes above the
+    xArm7's wrist ran to its 3.14 rad/s limits within 0.1 s in the air (joint damping) and 40 ms pressing (J+)."""
+    import judgeopt
+    from judgeopt.sim.quiet import pb
+
+    sim = judgeopt.simulator(robot=robot)
+    sc = sim.scene
+
+    def fastest_joint(cmd: TaskCommand, force: float) -> float:
+        top = 0.0
+        for i in range(300):
+            cmd.force_z = force * min(1.0, (i + 1) / 100)
+            sim.step(cmd)
+            top = max(top, *(abs(s[1]) for s in pb.getJointStates(sc.robot, sc.arm_joints, physicsClientId=sc.client)))
+        return top
+
+    try:
+        sim.reset(0.0, 0.2, 0.5, height=0.05)
+        air = fastest_joint(TaskCommand(position=np.array([sc.config.x_home, 0.0, sim.z_contact + 0.05]),
+                                        selection=np.ones(6)), 0.0)
+        sim.reset(0.0, 0.2, 0.5)
+        pressing = fastest_joint(TaskCommand(position=np.array([sc.config.x_home, 0.0, sim.z_contact])), 20.0)
+        assert air < 0.2 and pressing < 0.2, (air, pressing)
+        assert abs(sim.controller.f_est[2] - 20.0) < 2.0, sim.controller.f_est
+    finally:
+        sim.close()
+
+
 @pytest.mark.parametrize("robot", ARMS)
 def test_the_scooping_line_lies_in_the_workspace_with_margin(robot):
     """IK along the whole line the rollout may command (blade on the plate and lifted), on the home
