@@ -147,6 +147,9 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
 #: the commands that never import torch (listings, plots of data files; the service, whose workers import it): the
 #: others import it first, holding Ctrl-C
 NO_TORCH = frozenset({"tasks", "robots", "plot-data", "serve"})
+#: the commands that import torch only where they need it: solve loads its judge's built library and the
+#: generator's numpy weights without it once a run has left them (planners.loaded.fast_models)
+FAST_START = frozenset({"solve"})
 EXIT_CODES_HELP = "exit codes:\n" + "\n".join(f"  {c.value:<4} {text}" for c, text in EXIT_MEANINGS.items())
 
 
@@ -348,13 +351,17 @@ def _main(argv: list[str] | None) -> int:
     command = f"judgeopt {args.command}"
     _log_to_stderr(getattr(args, "quiet", False))
     here = not getattr(args, "server", None)  # solve --server: planned by a service, no torch here
-    if args.command not in NO_TORCH and here:
+    if args.command not in NO_TORCH and args.command not in FAST_START and here:
         with held():  # torch's import is native code throughout: a Ctrl-C inside it aborts the process
             import torch  # noqa: F401
     if getattr(args, "threads", None) is not None and here:
         from judgeopt.threads import set_threads
 
-        set_threads(args.threads)
+        set_threads(args.threads, lazy=args.command in FAST_START)
+    if args.command in FAST_START and here:
+        from judgeopt.judge.compiled import enable_fast_start
+
+        enable_fast_start()
     try:
         with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)):
             return int(args.func(args))

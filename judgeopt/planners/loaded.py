@@ -15,12 +15,12 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from judgeopt.files import resolve
-from judgeopt.judge.model import Judge
+from judgeopt.judge.compiled import CompiledJudge
 from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_planners, planner_names, spec_of,
                                     to_build, unknown, with_uses)
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
@@ -28,6 +28,13 @@ from judgeopt.planners.result import PlanResult, assess, infeasible_result
 from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.trajectory import PlanError
 from judgeopt.verdict.risk import RISK, annotate as annotate_risk
+
+if TYPE_CHECKING:
+    from judgeopt.judge.model import Judge
+
+#: the planners a fast start serves (fast_models): they only call the judge (no batched torch
+#: forward passes) and take the generator's numpy rollout
+FAST_PLANNERS = frozenset({"amortized", "direct"})
 
 @dataclass(frozen=True)
 class ChosenModels:
@@ -93,6 +100,55 @@ def without_generator() -> str:
     return " or ".join(f"--method {m}" for m in default_planners() if "generator" not in spec_of(m).needs)
 
 
+def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: str | None = None
+                ) -> tuple[CompiledJudge, dict, dict] | None:
+    """A fast start where one can be made: the judge's built library (judge.compiled.recall) and the
+    generator's weights as numpy (planners.store.load_generator_arrays), without torch's Python
+    package, as (judge, its metadata, {generator path: (arrays, metadata)}). None where the process
+    has not enabled it (judge.compiled.enable_fast_start: solve and the service's workers do), where a
+    planner asked for is not in FAST_PLANNERS, for an ensemble, or where the artefacts a torch run
+    leaves (the library's record, the weights' copy) are missing or stale: the caller loads the
+    models with torch. Whether torch is imported already does not matter, so that one process
+    answers the same request the same way before and after another request made it import torch."""
+    from judgeopt.judge.backends import DEFAULT_BACKEND, choose_backend
+    from judgeopt.judge.compiled import TrajectoryFormat, fast_start_enabled, recall
+    from judgeopt.judge.store import load_meta
+    from judgeopt.planners.store import load_generator_arrays
+    from judgeopt.threads import wanted_threads
+
+    problem = chosen.problem
+    if not fast_start_enabled() or not set(methods) <= FAST_PLANNERS or problem.ensemble:
+        return None
+    import importlib.util
+
+    if importlib.util.find_spec("l4casadi") is None:
+        return None
+    jmeta = load_meta(chosen.judge)
+    try:
+        fmt = TrajectoryFormat.of(jmeta["config"])
+    except ValueError:
+        return None
+    backend = choose_backend(casadi_backend or DEFAULT_BACKEND, problem.objective == "target", fmt)
+    from judgeopt.files import cache_dir, sha256_file
+    from judgeopt.formats.model_files import model_paths
+
+    try:
+        if sha256_file(model_paths(chosen.judge)[0]) != jmeta["weights_sha256"]:
+            return None  # a weights file replaced after saving: load_judge says so in one line
+    except OSError:
+        return None
+    generators = {}
+    if chosen.generator is not None:
+        arrays = load_generator_arrays(chosen.generator)
+        if arrays is None:
+            return None
+        generators[chosen.generator] = arrays
+    found = recall(cache_dir(), jmeta["weights_sha256"], backend, wanted_threads())
+    if found is None:
+        return None
+    return CompiledJudge(*found), jmeta, generators
+
+
 @dataclass(frozen=True)
 class ModelRequest:
     """What the user asked for: a judge and a generator (None: the problem's judge, the generator
@@ -109,7 +165,7 @@ class Planners:
     """Every planner asked for, built once for one problem and judge, run for many environments."""
 
     problem: Problem
-    judge: Judge
+    judge: "Judge | CompiledJudge"  # CompiledJudge: a fast start (fast_models)
     judge_meta: dict
     chosen: ChosenModels
     request: ModelRequest
@@ -123,7 +179,8 @@ class Planners:
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
     evidence: dict = field(default_factory=dict)  # the file's held-out evidence (verdict.risk.evidence_key -> Evidence)
     risk: float = RISK  # the failure rate a "likely" may carry (its upper confidence bound on the evidence)
-    generators: dict = field(default_factory=dict)  # generator path -> (Generator, meta), shared by with_limits copies
+    #: generator path -> (Generator or GeneratorArrays, meta), shared by with_limits copies
+    generators: dict = field(default_factory=dict)
     for_sets: dict = field(default_factory=dict)  # (method, samples, case) -> its planner for environment sets
 
     @classmethod
@@ -141,10 +198,18 @@ class Planners:
             raise ProblemError(f"unknown method(s) {bad}; choose from {list(planner_names())}")
         methods = with_uses(methods)
         chosen = choose_models(problem, to_build(methods), judge, generator, models_dir)
-        jmodel, jmeta = load_judge(chosen.judge)
+        fast = fast_models(chosen, to_build(methods), casadi_backend)
+        if fast is not None:
+            jmodel, jmeta, generators = fast
+        else:
+            from judgeopt.threads import import_torch
+
+            import_torch()  # on the threads the command line asked for
+            (jmodel, jmeta), generators = load_judge(chosen.judge), {}
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, chosen, ModelRequest(judge, generator, models_dir, casadi_backend),
-                  tuple(m for m in planner_names() if m in methods), notes=coverage_notes(problem, jmeta))
+                  tuple(m for m in planner_names() if m in methods), notes=coverage_notes(problem, jmeta),
+                  generators=generators)
         out._load_generator()
         out.built = out._build()
         out._settings()
@@ -165,7 +230,7 @@ class Planners:
     def _load_generator(self) -> None:
         """The generator chosen, loaded once, with what the user should know about it; none where a
         planner asked for needs one is an error naming what to do."""
-        from judgeopt.planners.store import load_generator, matches
+        from judgeopt.planners.store import matches
 
         gpath, models_dir = self.generator_path, self.request.models_dir
         if gpath is None:
@@ -179,25 +244,34 @@ class Planners:
                     f"{p.source or 'PROBLEM'} [--conditioned] ... --out models/NAME`, "
                     f"pass one with --generator, or use {without_generator()}")
             return
-        _, gmeta = self.generators[gpath] = load_generator(gpath)
+        _, gmeta = self._generator(gpath)
         if not matches(gmeta, self.problem):
             self.notes.append(f"generator {gpath} was trained for other limits; its plan may violate these "
                               "(reported below)")
         if gmeta.get("judge", {}).get("weights_sha256") != self.judge_meta["weights_sha256"]:
             self.notes.append(f"generator {gpath} was trained against another judge")
 
+    def _generator(self, gpath: Path) -> tuple[Any, dict]:
+        """(generator, metadata) at `gpath`, loaded once: its numpy arrays where this is a fast start
+        (the judge a CompiledJudge) and the cache has them, else the torch Generator."""
+        from judgeopt.planners.store import load_generator, load_generator_arrays
+        from judgeopt.threads import import_torch
+
+        if gpath not in self.generators:
+            fast = load_generator_arrays(gpath) if isinstance(self.judge, CompiledJudge) else None
+            if fast is None:
+                import_torch()  # on the threads the command line asked for
+            self.generators[gpath] = fast or load_generator(gpath)
+        return self.generators[gpath]
+
     def _build(self, previous: dict[str, Planner] | None = None) -> dict[str, Planner]:
         """Every planner to run, each after what it needs. One built before, for other limits, is
         carried over by its own with_limits where it can; one that needs a generator where none
         covers the limits is left out (one built before, only warm-starting others, stays)."""
-        from judgeopt.planners.store import load_generator
-
         previous = previous or {}
         gpath = self.generator_path
-        if gpath is not None and gpath not in self.generators:
-            self.generators[gpath] = load_generator(gpath)
         context = BuildContext(self.problem, self.judge, self.judge_meta,
-                               self.generators[gpath][0] if gpath is not None else None,
+                               self._generator(gpath)[0] if gpath is not None else None,
                                self.request.casadi_backend, self.notes)
         built: dict[str, Planner] = {}
         for m in to_build(self.methods):

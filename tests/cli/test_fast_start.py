@@ -42,3 +42,45 @@ def test_every_help_builds_without_heavy_imports():
     assert len(found["paths"]) > 10  # the main command and every subcommand were built
     assert found["codes"] == [0] * len(found["paths"])  # each --help printed and exited cleanly
     assert found["heavy"] == []
+
+
+#: judgeopt's command line in a fresh process where importing torch fails (a finder that raises), and
+#: an assertion after it that torch was not imported either way
+NO_TORCH = """
+import sys
+
+class NoTorch:
+    def find_spec(self, name, path=None, target=None):
+        if name == "torch" or name.startswith("torch."):
+            raise ImportError(f"{name}: blocked by the fast-start test")
+        return None
+
+sys.meta_path.insert(0, NoTorch())
+from judgeopt.cli import main
+code = main(sys.argv[1:])
+assert "torch" not in sys.modules, "torch was imported"
+sys.exit(code)
+"""
+
+
+def test_a_second_solve_imports_no_torch_and_plans_the_same():
+    """Once a run has left the judge's library record and the generator's weights copy (the first
+    builds them, judge.compiled), `solve --no-simulate` runs without torch's Python package: the same
+    plans, verdicts and table, the amortised plan's judge p computed by the library the direct solve
+    constrains (float32 inside l4casadi, as the direct solve's own p)."""
+    args = ["solve", "--qdot-max", "0.4", "--no-simulate"]
+    first = subprocess.run([sys.executable, "-m", "judgeopt", *args, "--json"], capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    second = subprocess.run([sys.executable, "-c", NO_TORCH, *args, "--json"], capture_output=True, text=True)
+    assert second.returncode == 0, second.stderr[-2000:]
+    a, b = json.loads(first.stdout), json.loads(second.stdout)
+    assert (a["verdict"], a["recommended"]) == (b["verdict"], b["recommended"])
+    for ra, rb in zip(a["results"], b["results"], strict=True):
+        assert (ra["method"], ra["status"], ra["iterations"], ra["verdict"]) == \
+            (rb["method"], rb["status"], rb["iterations"], rb["verdict"])
+        for k in ("y", "ydot", "f"):
+            assert ra[k] == rb[k], (ra["method"], k)  # the generator's numpy rollout, the same solve
+        assert abs(ra["predicted_success"] - rb["predicted_success"]) < 1e-6
+    table = subprocess.run([sys.executable, "-c", NO_TORCH, *args], capture_output=True, text=True)
+    assert table.returncode == 0, table.stderr[-2000:]
+    assert "method     judge  success p" in table.stdout and "direct plan (every 5th" in table.stdout
