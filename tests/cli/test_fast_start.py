@@ -8,6 +8,8 @@ import json
 import subprocess
 import sys
 
+from judgeopt.cli.main import build_parser
+
 HEAVY = ("torch", "casadi", "pybullet", "scipy", "matplotlib")
 
 #: in a fresh process: every parser built, every help printed through main(), then what was imported
@@ -44,10 +46,37 @@ def test_every_help_builds_without_heavy_imports():
     assert found["heavy"] == []
 
 
+def test_the_main_help_imports_not_even_numpy_and_lists_every_command_by_its_line():
+    """`judgeopt --help` builds no command's parser (cli.commands lists them): numpy, the tasks and
+    the problems stay unimported; the listing is the full parser's, command by command."""
+    code = ("import contextlib, io, json, sys\nfrom judgeopt.cli.main import main\n"
+            "with contextlib.redirect_stdout(io.StringIO()) as out:\n"
+            "    try:\n        main(['--help'])\n    except SystemExit:\n        pass\n"
+            "print(json.dumps({'help': out.getvalue(), 'heavy': sorted(m for m in ('numpy', *%r) if m in sys.modules)}))"
+            % (HEAVY,))
+    found = json.loads(subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout)
+    assert found["heavy"] == []
+    full = build_parser().format_help()
+    assert found["help"] == full  # the same listing, in the same order, as every parser built in full
+
+
+def test_one_command_is_parsed_as_the_full_parser_parses_it():
+    from judgeopt.cli.commands import COMMANDS
+
+    full = next(a for a in build_parser()._actions if a.dest == "command")
+    assert list(full.choices) == list(COMMANDS)
+    for name in COMMANDS:
+        only = next(a for a in build_parser(name)._actions if a.dest == "command")
+        assert list(only.choices) == list(COMMANDS)
+        assert only.choices[name].format_help() == full.choices[name].format_help(), name
+
+
 #: judgeopt's command line in a fresh process where importing torch fails (a finder that raises), and
 #: an assertion after it that torch was not imported either way
 NO_TORCH = """
 import sys
+
+from judgeopt.cli.main import build_parser
 
 class NoTorch:
     def find_spec(self, name, path=None, target=None):
