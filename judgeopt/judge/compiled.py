@@ -341,9 +341,8 @@ class CompiledJudge:
     `config` (its trajectory format) and predict_logit / predict_proba, evaluated by the same CasADi
     function the direct solve constrains (so the generator's plan is judged as the solve judges)."""
 
-    def __init__(self, cjudge: CasadiJudge, record: LibraryRecord) -> None:
-        self.cjudge, self.record = cjudge, record
-        self.config = TrajectoryFormat.of(record.config)
+    def __init__(self, cjudge: CasadiJudge, config: TrajectoryFormat) -> None:
+        self.cjudge, self.config = cjudge, config
 
     def predict_logit(self, x: np.ndarray, e: np.ndarray) -> np.ndarray:
         """Logits of (N+1, C) or (B, N+1, C) trajectories in (E,) or (B, E) environments."""

@@ -102,26 +102,29 @@ def without_generator() -> str:
 
 def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: str | None = None
                 ) -> tuple[CompiledJudge, dict, dict] | None:
-    """A fast start where one can be made: the judge's built library (judge.compiled.recall) and the
-    generator's weights as numpy (planners.store.load_generator_arrays), without torch's Python
-    package, as (judge, its metadata, {generator path: (arrays, metadata)}). None where the process
-    has not enabled it (judge.compiled.enable_fast_start: solve and the service's workers do), where a
-    planner asked for is not in FAST_PLANNERS, for an ensemble, or where the artefacts a torch run
-    leaves (the library's record, the weights' copy) are missing or stale: the caller loads the
-    models with torch. Whether torch is imported already does not matter, so that one process
-    answers the same request the same way before and after another request made it import torch."""
+    """The models of a fast start (judge.compiled), as (judge, its metadata, {generator path: (arrays,
+    metadata)}): the judge as its built library and the generator as numpy arrays, read without
+    torch's Python package where a run has left them (the library's record, the weights' copy), else
+    made with torch, which leaves them. Either way the planners get the same models, so the first run
+    and the next ones answer alike (the amortised plan's judge p included), and one process answers a
+    request the same way before and after another request made it import torch.
+    None where the process has not enabled it (judge.compiled.enable_fast_start: solve and the
+    service's workers do), where a planner asked for is not in FAST_PLANNERS, for an ensemble, or where
+    the judge's backend has no library to load (l4casadi missing, a build that fell back to the torch
+    callback): the caller loads the torch models."""
+    import importlib.util
+
+    from judgeopt.files import cache_dir, sha256_file
+    from judgeopt.formats.model_files import model_paths
     from judgeopt.judge.backends import DEFAULT_BACKEND, choose_backend
-    from judgeopt.judge.compiled import TrajectoryFormat, fast_start_enabled, recall
+    from judgeopt.judge.compiled import RECALLED, TrajectoryFormat, fast_start_enabled, recall
     from judgeopt.judge.store import load_meta
     from judgeopt.planners.store import load_generator_arrays
     from judgeopt.threads import wanted_threads
 
     problem = chosen.problem
-    if not fast_start_enabled() or not set(methods) <= FAST_PLANNERS or problem.ensemble:
-        return None
-    import importlib.util
-
-    if importlib.util.find_spec("l4casadi") is None:
+    if not fast_start_enabled() or not set(methods) <= FAST_PLANNERS or problem.ensemble \
+            or importlib.util.find_spec("l4casadi") is None:
         return None
     jmeta = load_meta(chosen.judge)
     try:
@@ -129,24 +132,47 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     except ValueError:
         return None
     backend = choose_backend(casadi_backend or DEFAULT_BACKEND, problem.objective == "target", fmt)
-    from judgeopt.files import cache_dir, sha256_file
-    from judgeopt.formats.model_files import model_paths
-
-    try:
-        if sha256_file(model_paths(chosen.judge)[0]) != jmeta["weights_sha256"]:
-            return None  # a weights file replaced after saving: load_judge says so in one line
-    except OSError:
+    if backend not in RECALLED:
         return None
     generators = {}
     if chosen.generator is not None:
-        arrays = load_generator_arrays(chosen.generator)
-        if arrays is None:
-            return None
-        generators[chosen.generator] = arrays
-    found = recall(cache_dir(), jmeta["weights_sha256"], backend, wanted_threads())
-    if found is None:
+        generators[chosen.generator] = load_generator_arrays(chosen.generator) or _torch_generator(chosen.generator)
+    found = None
+    try:
+        if sha256_file(model_paths(chosen.judge)[0]) == jmeta["weights_sha256"]:  # else load_judge says what is wrong
+            found = recall(cache_dir(), jmeta["weights_sha256"], backend, wanted_threads())
+    except OSError:
+        pass
+    cj = found[0] if found is not None else _build_library(chosen.judge, jmeta, casadi_backend, problem)
+    return None if cj is None else (CompiledJudge(cj, fmt), jmeta, generators)
+
+
+def _torch_generator(path: Path) -> tuple[Any, dict]:
+    """The generator at `path` read with torch (which leaves the weights' copy), as numpy arrays."""
+    from judgeopt.planners.store import load_generator
+    from judgeopt.threads import import_torch
+
+    import_torch()
+    gen, meta = load_generator(path)
+    return gen.arrays(), meta
+
+
+def _build_library(path: Path, jmeta: dict, casadi_backend: str | None, problem: Problem) -> Any:
+    """The judge at `path` built (or found) as its library with torch, as the direct solve builds it,
+    and its record left for the next run; None where the build fell back to a torch callback."""
+    from judgeopt.judge.backends import DEFAULT_BACKEND
+    from judgeopt.judge.casadi_fn import build_casadi_judge, remember_library
+    from judgeopt.judge.compiled import RECALLED
+    from judgeopt.judge.store import load_judge
+    from judgeopt.threads import import_torch
+
+    import_torch()  # on the threads the command line asked for
+    judge, _ = load_judge(path)
+    cj = build_casadi_judge(judge, backend=casadi_backend or DEFAULT_BACKEND, noise_tolerant=problem.objective == "target")
+    if cj.backend not in RECALLED:
         return None
-    return CompiledJudge(*found), jmeta, generators
+    remember_library(judge, jmeta, cj)
+    return cj
 
 
 @dataclass(frozen=True)
