@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import sys
-from typing import Iterator
+from typing import Callable, ContextManager, Iterator
 
 #: torch threads for every command and API call unless --threads / threads= says otherwise
 DEFAULT_THREADS = 1
@@ -48,9 +48,15 @@ def wanted_threads() -> int:
     return DEFAULT_THREADS if _WANTED is None else _WANTED
 
 
+#: what torch's import runs inside: the command line sets its Ctrl-C hold (cli.interrupts.held), since a
+#: Ctrl-C inside torch's native import code aborts the process
+import_guard: Callable[[], ContextManager[None]] = contextlib.nullcontext
+
+
 def import_torch() -> None:
-    """Import torch, on the threads set_threads was given lazily (if any)."""
-    import torch
+    """Import torch (inside `import_guard`), on the threads set_threads was given lazily (if any)."""
+    with import_guard():
+        import torch
 
     if _WANTED is not None:
         torch.set_num_threads(_WANTED)

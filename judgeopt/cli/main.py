@@ -362,8 +362,10 @@ def _main(argv: list[str] | None) -> int:
 
         set_threads(args.threads, lazy=args.command in FAST_START)
     if args.command in FAST_START and here:
+        from judgeopt import threads
         from judgeopt.judge.compiled import enable_fast_start
 
+        threads.import_guard = held  # torch is imported later, where the fast start cannot serve
         enable_fast_start()
     try:
         with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)):

@@ -18,7 +18,7 @@ import logging
 from pathlib import Path
 from typing import Any, Sequence
 
-from judgeopt.errors import BadInput
+from judgeopt.errors import BadInput, JudgeoptError
 from judgeopt.files import atomic_write, cache_dir
 from judgeopt.formats.header import check_header
 
@@ -112,7 +112,7 @@ def remember_arrays(weights_sha256: str, state: dict[str, Any]) -> None:
     np.savez(buf, **{SOURCE_KEY: np.array(weights_sha256)}, **state)
     try:
         atomic_write(path, buf.getvalue())
-    except Exception as exc:  # judgeopt.files raises its own one-line error for an unwritable cache
+    except (OSError, JudgeoptError) as exc:  # judgeopt.files raises its own one-line error for an unwritable cache
         log.debug("weights copy not written (%s): the next solve reads the .pt with torch", exc)
 
 

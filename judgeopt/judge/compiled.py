@@ -23,13 +23,14 @@ import hashlib
 import importlib.metadata
 import json
 import logging
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 import casadi as cs
 import numpy as np
 
+from judgeopt.errors import JudgeoptError
 from judgeopt.judge.errors import TrajectoryError
 
 log = logging.getLogger("judgeopt")
@@ -209,7 +210,7 @@ class LibraryRecord:
     sources: dict[str, str]  # file -> sha256
 
     def to_json(self) -> dict[str, Any]:
-        return {"format": RECORD_FORMAT, **self.__dict__}
+        return {"format": RECORD_FORMAT, **asdict(self)}
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> "LibraryRecord":
@@ -243,7 +244,7 @@ def remember(root: Path, record: LibraryRecord) -> None:
         if path.is_file() and path.read_text() == text:
             return
         atomic_write(path, text)
-    except (OSError, Exception) as exc:  # judgeopt.files raises its own one-line error for an unwritable cache
+    except (OSError, JudgeoptError) as exc:  # judgeopt.files raises its own one-line error for an unwritable cache
         log.debug("judge library record not written (%s): the next solve imports torch", exc)
 
 
