@@ -12,8 +12,8 @@ import warnings
 from pathlib import Path
 from typing import Any
 
-from judgeopt.cli.commands import COMMANDS, HELP
 from judgeopt import __version__
+from judgeopt.cli.commands import COMMANDS, HELP
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, command_of, env_range, env_set, env_values, jobs_option,
                                  missing_extra, out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
@@ -147,7 +147,7 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
 
 
 #: the commands that never import torch (listings, plots of data files; the service, whose workers import it): the
-#: others import it first, holding Ctrl-C
+#: others but FAST_START import it first, holding Ctrl-C
 NO_TORCH = frozenset({"tasks", "robots", "plot-data", "serve"})
 #: the commands that import torch only where they need it: solve loads its judge's built library and the
 #: generator's numpy weights without it once a run has left them (planners.loaded.fast_models)

@@ -27,8 +27,8 @@ def choose_backend(backend: str = DEFAULT_BACKEND, noise_tolerant: bool = False,
     """`backend` itself, or for "auto" the fastest one for the use. Where ~1e-7 relative noise
     is harmless (`noise_tolerant`: the judge as a constraint): l4casadi32 (the network in float32
     inside l4casadi) where l4casadi is installed and the architecture (`config`, a JudgeConfig or
-    judge.compiled.TrajectoryFormat; None counts as the LSTM) is in AUTO_L4CASADI32, else the torch32 callback; both are 3-4x faster than any
-    float64 backend. Otherwise l4casadi (float64) where it is installed, else native (torch for
+    judge.compiled.TrajectoryFormat; None counts as the LSTM) is in AUTO_L4CASADI32, else the
+    torch32 callback; both are 3-4x faster than any float64 backend. Otherwise l4casadi (float64) where it is installed, else native (torch for
     an architecture without a CasADi graph). build_casadi_judge falls back from an "auto"
     l4casadi32 that fails to build to torch32, with one warning line."""
     if backend != "auto":

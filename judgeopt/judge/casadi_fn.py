@@ -147,7 +147,8 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
         fn, hit, where = _l4casadi_function(judge, root)
     if backend == "compiled":
         x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", judge.config.n_env)
-        wrapped = cs.Function(name, [x, e], list(fn(x, e)), ["traj", "env"], ["logit", "prob"])
+        logit, prob = fn(x, e)
+        wrapped = cs.Function(name, [x, e], [logit, prob], ["traj", "env"], ["logit", "prob"])
     else:
         cfg = judge.config
         wrapped = wrap_library(fn, backend, judge.normalization(), cfg.horizon, cfg.n_channels, cfg.n_env, name)

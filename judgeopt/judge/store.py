@@ -68,7 +68,8 @@ def load_judge(path: str | Path, check_hash: bool = True) -> tuple[Judge, dict[s
     return model.eval(), meta
 
 
-def check_compatible(meta: dict[str, Any] | JudgeConfig | TrajectoryFormat, horizon: int | None = None, dt: float | None = None,
+def check_compatible(meta: dict[str, Any] | JudgeConfig | TrajectoryFormat, horizon: int | None = None,
+                     dt: float | None = None,
                      channels: Sequence[str] | None = None, env_names: Sequence[str] | None = None) -> None:
     """Raise IncompatibleJudgeError saying exactly what differs between the judge's trajectory
     format and the given one (None: not checked). env_names are those AVAILABLE: the judge

@@ -143,9 +143,9 @@ class DirectPlanner(Planner):
     @classmethod
     def build(cls, context: BuildContext) -> "DirectPlanner":
         """Its judge through l4casadi32 where l4casadi is installed, else the torch32 callback
-        (judge.casadi_fn.choose_backend; the library is built once per judge, a few seconds, and
-        loaded from the cache after), with the problem's ensemble and trust region; what the user
-        should know about them is added to the context's notes."""
+        (judge.backends.choose_backend; the library is built once per judge, a few seconds, and
+        loaded from the cache after; a fast start's CompiledJudge brings it loaded), with the problem's
+        ensemble and trust region; what the user should know about them is added to the context's notes."""
         from judgeopt.files import resolve
         from judgeopt.judge.backends import DEFAULT_BACKEND
         from judgeopt.judge.store import check_compatible
@@ -466,9 +466,9 @@ class DirectPlanner(Planner):
         return lines + super().details(result)
 
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
+        """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
         from judgeopt.judge.ensemble import pessimistic
 
-        """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
         return pessimistic([m.fn(traj, env)[0] for m in self.members], self.problem.pessimism, cs.sqrt, cs.fmin, 1e-9)
 
     def _reached(self, x: np.ndarray, fixed: list[np.ndarray]) -> float:

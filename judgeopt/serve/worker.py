@@ -147,8 +147,9 @@ class Planning:
 
 def run(conn: Any, options: WorkerOptions) -> None:
     """A worker process's life: one torch thread, the models loaded (without torch where a fast
-    start can: planners.loaded.fast_models), then requests until told to stop. SIGINT and SIGTERM are the server's to handle (a Ctrl-C in the terminal or systemd's stop
-    reaches the whole process group): the worker finishes what it holds and stops when asked."""
+    start can: planners.loaded.fast_models), then requests until told to stop. SIGINT and SIGTERM
+    are the server's to handle (a Ctrl-C in the terminal or systemd's stop reaches the whole process
+    group): the worker finishes what it holds and stops when asked."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
