@@ -10,7 +10,7 @@ import logging
 import sys
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 from judgeopt import __version__
 from judgeopt.cli.commands import COMMANDS, HELP
@@ -286,6 +286,24 @@ def _quiet_simulator(quiet: bool) -> contextlib.AbstractContextManager:
     return env_set(QUIET_ENV, "1" if quiet else None)
 
 
+@contextlib.contextmanager
+def _fast_start(on: bool) -> Iterator[None]:
+    """For the command only (main() may be called in a process that goes on): the fast start
+    (judge.compiled), and torch's import, where it cannot serve, holding Ctrl-C as main's own does."""
+    if not on:
+        yield
+        return
+    from judgeopt import threads
+    from judgeopt.judge.compiled import fast_start
+
+    guard, threads.import_guard = threads.import_guard, held
+    try:
+        with fast_start():
+            yield
+    finally:
+        threads.import_guard = guard
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """A problem file's field in its old place is one line of note, a limit in an implausible unit one
     line of warning; other warnings as Python shows them."""
@@ -361,14 +379,9 @@ def _main(argv: list[str] | None) -> int:
         from judgeopt.threads import set_threads
 
         set_threads(args.threads, lazy=args.command in FAST_START)
-    if args.command in FAST_START and here:
-        from judgeopt import threads
-        from judgeopt.judge.compiled import enable_fast_start
-
-        threads.import_guard = held  # torch is imported later, where the fast start cannot serve
-        enable_fast_start()
     try:
-        with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)):
+        with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)), \
+                _fast_start(args.command in FAST_START and here):
             return int(args.func(args))
     except Exception as exc:
         code = exit_code(exc)

@@ -18,6 +18,7 @@ import made to fail).
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import hashlib
 import importlib.metadata
@@ -25,7 +26,7 @@ import json
 import logging
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any, Iterator, Mapping, Sequence
 
 import casadi as cs
 import numpy as np
@@ -167,6 +168,19 @@ def enable_fast_start(on: bool = True) -> None:
     torch Judge, which serves every planner, and its judge p as it always was."""
     global _FAST_START
     _FAST_START = on
+
+
+@contextlib.contextmanager
+def fast_start(on: bool = True) -> Iterator[None]:
+    """The fast start on (or off) inside the block, as it was after it: for one command in a
+    process that goes on (judgeopt.cli.main may be called from Python, whose later API calls plan
+    with the torch Judge as before)."""
+    before = _FAST_START
+    enable_fast_start(on)
+    try:
+        yield
+    finally:
+        enable_fast_start(before)
 
 
 def fast_start_enabled() -> bool:
