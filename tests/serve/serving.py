@@ -133,7 +133,11 @@ def start(tmp: Path, *options: str, token: str | None = None, env: dict[str, str
         process.kill()
         raise AssertionError(f"the server did not start: {line!r} {log.read_text()[-2000:]}")
     service = Service(line.split("listening on ")[1].split()[0], process, log, token)
-    service.wait_ready()
+    try:
+        service.wait_ready()
+    except AssertionError:  # a server that never got ready is stopped, not left running after the test
+        service.stop()
+        raise
     return service
 
 
