@@ -12,7 +12,8 @@ ask for more with --threads. Ipopt's own linear algebra (MUMPS) is single-thread
 from __future__ import annotations
 
 import contextlib
-from typing import Iterator
+import sys
+from typing import Callable, ContextManager, Iterator
 
 #: torch threads for every command and API call unless --threads / threads= says otherwise
 DEFAULT_THREADS = 1
@@ -25,11 +26,40 @@ def check_threads(n: object) -> int:
     return n
 
 
-def set_threads(n: int = DEFAULT_THREADS) -> None:
-    """Run torch on `n` threads in this process from now on."""
+#: the count set_threads was given where torch was not imported yet (lazy): applied when it is
+_WANTED: int | None = None
+
+
+def set_threads(n: int = DEFAULT_THREADS, lazy: bool = False) -> None:
+    """Run torch on `n` threads in this process from now on. `lazy`: where torch is not imported
+    yet, only remember `n` (a one-shot solve may never import it): `import_torch` applies it, and a
+    judge library loaded without torch (judge.compiled) runs on `wanted_threads()`."""
+    global _WANTED
+    _WANTED = check_threads(n)
+    if lazy and "torch" not in sys.modules:
+        return
     import torch
 
-    torch.set_num_threads(check_threads(n))
+    torch.set_num_threads(_WANTED)
+
+
+def wanted_threads() -> int:
+    """The threads set_threads was given (DEFAULT_THREADS where it was not called)."""
+    return DEFAULT_THREADS if _WANTED is None else _WANTED
+
+
+#: what torch's import runs inside: the command line sets its Ctrl-C hold (cli.interrupts.held), since a
+#: Ctrl-C inside torch's native import code aborts the process
+import_guard: Callable[[], ContextManager[None]] = contextlib.nullcontext
+
+
+def import_torch() -> None:
+    """Import torch (inside `import_guard`), on the threads set_threads was given lazily (if any)."""
+    with import_guard():
+        import torch
+
+    if _WANTED is not None:
+        torch.set_num_threads(_WANTED)
 
 
 @contextlib.contextmanager

@@ -9,6 +9,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import (CLIError, QUIET, env_range, file_path, floats, jobs_option, name_values, out_option, positive,
                                  risk_rate, strictly_between_0_and_1,
                                  seed_option, threads_option, value_range)
@@ -479,7 +480,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     from judgeopt.cli.planners import add_limit_range_arguments
     from judgeopt.planners.base import default_planners
 
-    e = sub.add_parser("evaluate", help="reproduce the paper's tables in simulation (Markdown, CSV, plot)",
+    e = sub.add_parser("evaluate", help=HELP["evaluate"],
                        description="Success rates measured by replaying every plan in the PyBullet scene, over --n "
                        "seeded environments per row (rows with the same ranges share them). Parallel processes "
                        "or a Dask cluster (--scheduler); finished chunks are kept in OUT/partial/, so an "
@@ -545,7 +546,7 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--chunk", type=positive, default=10, help="environments per work unit (and per resume step)")
     e.set_defaults(func=cmd_evaluate)
 
-    c = sub.add_parser("calibrate", help="fit calibrated success predictions from evaluated (replayed) plans",
+    c = sub.add_parser("calibrate", help=HELP["calibrate"],
                        description="For every planner setting (method, models, limits) with at least --min-n "
                        "replayed outcomes in the given `judgeopt evaluate` folders (an edge sweep's too), fit a "
                        "logistic map from the judge's logit and the environment to the simulated success, never "

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import OVERWRITE, CLIError, number, out_option
 from judgeopt.files import refuse_overwrite
 from judgeopt.trajectory import PlanError
@@ -44,7 +45,7 @@ def cmd_export(args: argparse.Namespace) -> int:
 
 
 def add_export_commands(sub: argparse._SubParsersAction) -> None:
-    e = sub.add_parser("export", help="write a saved plan (solve --save-json) as CSV or ROS 2 MCAP for a robot",
+    e = sub.add_parser("export", help=HELP["export"],
                        description="CSV: the importer's columns (t [s], each channel by name in m, m/s, N, then the "
                        "environment the plan was made for), resampled to --step, so a recording of the executed "
                        "plan in the same columns plus a label column (success/failure) re-imports with "

@@ -13,6 +13,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any, Callable
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import JSON, CLIError, ExitCode
 
 KINDS = "datasets (.h5), judges and generators (STEM, STEM.json or STEM.pt), ensembles (folder), calibrations, " \
@@ -262,7 +263,7 @@ def format_dataset(path: str, s: dict[str, Any]) -> str:
 
 
 def add_inspect_command(sub: argparse._SubParsersAction) -> None:
-    i = sub.add_parser("inspect", help="summarise any file judgeopt writes (dataset, model, plan, evaluation, ...)",
+    i = sub.add_parser("inspect", help=HELP["inspect"],
                        description=f"Reads {KINDS}; each is validated by loading it.", parents=[JSON])
     i.add_argument("path", help="the file or folder")
     i.set_defaults(func=cmd_inspect)

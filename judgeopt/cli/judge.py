@@ -14,6 +14,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, command_line, names, number, out_option,
                                  positive, seed_option, threads_option)
 from judgeopt.files import refuse_overwrite, resolve
@@ -311,7 +312,7 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     """Add `train-judge` and `test-judge` to the main parser's subcommands."""
     from judgeopt.judge.train_config import TrainConfig
     t = subparsers.add_parser(
-        "train-judge", help="train the success judge NN_judge on a demonstration file",
+        "train-judge", help=HELP["train-judge"],
         description="Success judge (the paper's LSTM, Fig. 2, Table 2, or another --arch) trained with Adam on the responses; the epoch "
         "with the best accuracy on a validation split of --train is kept, --test is only reported. Writes "
         "OUT.pt, OUT.json (metadata), OUT.history.csv/.json and OUT.accuracy.png.",
@@ -346,7 +347,7 @@ def add_judge_commands(subparsers: argparse._SubParsersAction) -> None:
     t.set_defaults(func=cmd_train_judge)
 
     e = subparsers.add_parser(
-        "test-judge", help="score a trained judge on a dataset",
+        "test-judge", help=HELP["test-judge"],
         description="Accuracy, precision, recall, expected calibration error (10 bins) and the confusion matrix.",
         parents=[JSON, threads_option()])
     e.add_argument("--judge", default=DEFAULT_MODEL, metavar="STEM", help="judge model path without suffix")
@@ -373,8 +374,7 @@ def cmd_train_ensemble(args) -> int:
 
 
 def add_ensemble_command(sub) -> None:
-    e = sub.add_parser("train-ensemble", help="train K judges (seeds, bootstrap samples) for pessimistic planning "
-                       "([models] ensemble, [solver] pessimism)",
+    e = sub.add_parser("train-ensemble", help=HELP["train-ensemble"],
                        description="Resumable: finished members are kept; rerun to complete an interrupted run.",
                        parents=[out_option("DIR", "folder (the shipped one is models/judge_ensemble)",
                                            default="out/judge_ensemble"), OVERWRITE, seed_option(), threads_option(),

@@ -4,18 +4,20 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import json
 import logging
 import sys
 import warnings
 from pathlib import Path
+from typing import Any, Iterator
 
 from judgeopt import __version__
+from judgeopt.cli.commands import COMMANDS, HELP
 from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError, ExitCode, ListingHelpFormatter, Parser,
                                  check_range, command_line, command_of, env_range, env_set, env_values, jobs_option,
                                  missing_extra, out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
                                  using_plugins, value_range, wants_json)
-from judgeopt.cli.examples import example_perturbation
 from judgeopt.cli.interrupts import held
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
@@ -144,17 +146,19 @@ def cmd_plot_data(args: argparse.Namespace) -> int:
 
 
 #: the commands that never import torch (listings, plots of data files; the service, whose workers import it): the
-#: others import it first, holding Ctrl-C
+#: others but FAST_START import it first, holding Ctrl-C
 NO_TORCH = frozenset({"tasks", "robots", "plot-data", "serve"})
+#: the commands that import torch only where they need it: solve loads its judge's built library and the
+#: generator's numpy weights without it once a run has left them (planners.loaded.fast_models)
+FAST_START = frozenset({"solve"})
 EXIT_CODES_HELP = "exit codes:\n" + "\n".join(f"  {c.value:<4} {text}" for c, text in EXIT_MEANINGS.items())
 
 
-def build_parser() -> argparse.ArgumentParser:
-    p = Parser(prog="judgeopt", description=__doc__, epilog=EXIT_CODES_HELP, formatter_class=ListingHelpFormatter)
-    p.add_argument("--version", action="version", version=f"judgeopt {__version__}")
-    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+def add_collect_command(sub: argparse._SubParsersAction) -> None:
+    """Add `collect`."""
+    from judgeopt.cli.examples import example_perturbation
 
-    c = sub.add_parser("collect", help="run a task's random demonstrations in simulation and save them labelled",
+    c = sub.add_parser("collect", help=HELP["collect"],
                        description="Random demonstrations of a task (the scoop's: random spline scoops, paper IV-B) "
                        "run on the simulated UR5, labelled by outcome. A grid (--per-env N at each point of --grid "
                        "values, default the task's grid: the scoop's is the paper's 3 x 3) or --n random environments. "
@@ -189,21 +193,19 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--chunk", type=positive, default=25, help="demonstrations per work unit (and per resume step)")
     c.set_defaults(func=cmd_collect)
 
-    k = sub.add_parser("tasks", help="list the tasks judgeopt can plan for",
+
+def add_tasks_command(sub: argparse._SubParsersAction) -> None:
+    """Add `tasks`."""
+    k = sub.add_parser("tasks", help=HELP["tasks"],
                        description="Each task's channels (name, unit, kind), environment variables and horizon. "
                        "With --json: a list of objects (name, channels, env_names, environment, horizon, dt).",
                        parents=[JSON])
     k.set_defaults(func=cmd_tasks)
 
-    from judgeopt.cli.inspect import add_inspect_command
-    from judgeopt.cli.models import add_models_command
-    from judgeopt.cli.robots import add_robots_command
 
-    add_inspect_command(sub)
-    add_models_command(sub)
-    add_robots_command(sub, [JSON])
-
-    r = sub.add_parser("render", help="replay demonstrations in PyBullet and save GIFs",
+def add_render_command(sub: argparse._SubParsersAction) -> None:
+    """Add `render`."""
+    r = sub.add_parser("render", help=HELP["render"],
                        description="Replays demonstrations of a dataset with the headless renderer.",
                        parents=[out_option("DIR", "folder for the GIFs", default="renders")])
     r.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
@@ -214,39 +216,43 @@ def build_parser() -> argparse.ArgumentParser:
                    "dataset was collected on)")
     r.set_defaults(func=cmd_render)
 
-    d = sub.add_parser("plot-data", help="plot max velocity against max force coloured by label (paper Fig. 13)",
+
+def add_plot_data_command(sub: argparse._SubParsersAction) -> None:
+    """Add `plot-data`."""
+    d = sub.add_parser("plot-data", help=HELP["plot-data"],
                        parents=[out_option("IMAGE", "image to write (PNG, PDF or SVG by suffix)",
                                            default="velocity_force.png"), OVERWRITE])
     d.add_argument("--data", required=True, metavar="FILE", help="dataset (HDF5)")
     d.set_defaults(func=cmd_plot_data)
 
-    from judgeopt.cli.recordings import add_recording_commands
 
-    add_recording_commands(sub)
-    from judgeopt.cli.judge import add_judge_commands
+class _Only:
+    """The subparsers action as an adder sees it when only `name`'s parser is wanted: the other
+    commands the adder adds go to a parser that is thrown away (they are listed by their line)."""
 
-    add_judge_commands(sub)
-    from judgeopt.cli.planners import add_planner_commands
+    def __init__(self, sub: argparse._SubParsersAction, name: str) -> None:
+        self.sub, self.name = sub, name
 
-    add_planner_commands(sub)
-    from judgeopt.cli.evaluate import add_evaluate_commands
+    def add_parser(self, name: str, **kwargs: Any) -> argparse.ArgumentParser:
+        return self.sub.add_parser(name, **kwargs) if name == self.name else Parser(prog=f"judgeopt {name}")
 
-    add_evaluate_commands(sub)
-    from judgeopt.cli.refine import add_refine_commands
 
-    add_refine_commands(sub)
-    from judgeopt.cli.planners import add_trust_region_command
-
-    add_trust_region_command(sub)
-    from judgeopt.cli.judge import add_ensemble_command
-
-    add_ensemble_command(sub)
-    from judgeopt.cli.export import add_export_commands
-
-    add_export_commands(sub)
-    from judgeopt.cli.serve import add_serve_command
-
-    add_serve_command(sub)
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser. `command` None: every subcommand's parser in full (what the tests
+    and the docs walk); a name: that command's in full and the others listed by their help line
+    (cli.commands), so that running one command, or `judgeopt --help` (""), imports no other
+    command's module (those import numpy, the tasks, the problems)."""
+    p = Parser(prog="judgeopt", description=__doc__, epilog=EXIT_CODES_HELP, formatter_class=ListingHelpFormatter)
+    p.add_argument("--version", action="version", version=f"judgeopt {__version__}")
+    sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    added: set[str] = set()
+    for name, c in COMMANDS.items():
+        if command is not None and name != command:
+            sub.add_parser(name, help=c.help)  # listed; never parses (the command typed is another)
+        elif c.adder not in added:
+            added.add(c.adder)
+            module, function = c.adder.split(":")
+            getattr(importlib.import_module(module), function)(sub if command is None else _Only(sub, name))
     return p
 
 
@@ -277,6 +283,24 @@ def _quiet_simulator(quiet: bool) -> contextlib.AbstractContextManager:
     from judgeopt.sim import QUIET_ENV
 
     return env_set(QUIET_ENV, "1" if quiet else None)
+
+
+@contextlib.contextmanager
+def _fast_start(on: bool) -> Iterator[None]:
+    """For the command only (main() may be called in a process that goes on): the fast start
+    (judge.compiled), and torch's import, where it cannot serve, holding Ctrl-C as main's own does."""
+    if not on:
+        yield
+        return
+    from judgeopt import threads
+    from judgeopt.judge.compiled import fast_start
+
+    guard, threads.import_guard = threads.import_guard, held
+    try:
+        with fast_start():
+            yield
+    finally:
+        threads.import_guard = guard
 
 
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -343,19 +367,20 @@ def main(argv: list[str] | None = None) -> int:
 
 def _main(argv: list[str] | None) -> int:
     warnings.showwarning = _show_warning
-    args = build_parser().parse_args(argv)
+    args = build_parser(command_of(argv) or "").parse_args(argv)
     command = f"judgeopt {args.command}"
     _log_to_stderr(getattr(args, "quiet", False))
     here = not getattr(args, "server", None)  # solve --server: planned by a service, no torch here
-    if args.command not in NO_TORCH and here:
+    if args.command not in NO_TORCH and args.command not in FAST_START and here:
         with held():  # torch's import is native code throughout: a Ctrl-C inside it aborts the process
             import torch  # noqa: F401
     if getattr(args, "threads", None) is not None and here:
         from judgeopt.threads import set_threads
 
-        set_threads(args.threads)
+        set_threads(args.threads, lazy=args.command in FAST_START)
     try:
-        with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)):
+        with using_plugins(getattr(args, "plugin", None)), _quiet_simulator(getattr(args, "quiet", False)), \
+                _fast_start(args.command in FAST_START and here):
             return int(args.func(args))
     except Exception as exc:
         code = exit_code(exc)

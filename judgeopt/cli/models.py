@@ -7,6 +7,7 @@ import json
 import re
 from typing import Any
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import JSON
 
 #: (key, label) of the lines under a model's name, in the order they are shown
@@ -140,7 +141,7 @@ def cmd_models(args: argparse.Namespace) -> int:
 
 
 def add_models_command(sub: argparse._SubParsersAction) -> None:
-    m = sub.add_parser("models", help="list the shipped models: what each is, and the defaults solve uses",
+    m = sub.add_parser("models", help=HELP["models"],
                        description="Every shipped model of a task (judges, generators, the ensemble, calibration, "
                        "trust region) read from its own metadata: what it is, what it is for (which of the task's "
                        "problem files plan with it, the choice `judgeopt solve` makes, or the option that names it) "

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import (JSON, OVERWRITE, QUIET, CLIError, ExitCode, add_plugin_option, command_line, env_assignment,
                                  risk_rate,
                                  figure_path,
@@ -591,7 +592,7 @@ def _write_history(history: list[dict], out: Path) -> None:
 
 
 def add_planner_commands(sub: argparse._SubParsersAction) -> None:
-    s = sub.add_parser("solve", help="plan a motion under the problem's limits with the shipped models",
+    s = sub.add_parser("solve", help=HELP["solve"],
                        parents=[out_option("FILE", "write each plan as CSV at 1 kHz, the importer's columns (one file "
                                            "per method: NAME_METHOD.csv)"), OVERWRITE, JSON, QUIET, threads_option()],
                        description="Plan with the amortised generator and/or the direct Ipopt solve against the "
@@ -646,7 +647,7 @@ def add_planner_commands(sub: argparse._SubParsersAction) -> None:
                    "limit that makes a plan likely (default: on; --no-suggest turns it off)")
     s.set_defaults(func=cmd_solve)
 
-    t = sub.add_parser("train-generator", help="train the amortised generator through the frozen judge (eqs. 2-4)",
+    t = sub.add_parser("train-generator", help=HELP["train-generator"],
                        parents=[out_option("STEM", "model path without suffix, e.g. out/generator_slow (writes "
                                            "STEM.pt and STEM.json)", required=True), OVERWRITE, seed_option(),
                                 threads_option(), QUIET],
@@ -725,8 +726,7 @@ def cmd_fit_trust_region(args) -> int:
 
 
 def add_trust_region_command(sub) -> None:
-    t = sub.add_parser("fit-trust-region", help="model the successful demonstrations for the direct solve's "
-                       "trust region ([solver] trust_region, [models] trust_model)",
+    t = sub.add_parser("fit-trust-region", help=HELP["fit-trust-region"],
                        parents=[out_option("STEM", "model path without suffix (writes STEM.json; the shipped one is "
                                            "models/trust_region_default)", default="out/trust_region"), OVERWRITE])
     t.add_argument("--data", default="data/train.h5", metavar="FILE", help="demonstrations (HDF5)")

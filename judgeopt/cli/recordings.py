@@ -9,6 +9,7 @@ from collections import Counter
 from pathlib import Path
 from typing import Any
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import OVERWRITE, CLIError, ExitCode, command_line, number, out_option
 from judgeopt.data.recording import ALIGN, FIT, ImportSpec
 from judgeopt.files import refuse_overwrite
@@ -179,8 +180,7 @@ def add_reader_flags(m: argparse.ArgumentParser) -> None:
 def add_recording_commands(sub: Any) -> None:
     """The parsers of import-demos and export-demos (called by `judgeopt.cli.main.build_parser`)."""
     m = sub.add_parser(
-        "import-demos", help="import recorded demonstrations (CSV, robomimic-style HDF5, LeRobot v3 or ROS 2 MCAP "
-        "bags) into the dataset format",
+        "import-demos", help=HELP["import-demos"],
         description="CSV columns: t [s], y [m], optional ydot [m/s], f [N], label (success/failure), the environment "
         "columns, optional demo_id (several demonstrations in one table). HDF5 (.h5/.hdf5, robomimic layout): "
         "data/demo_N groups with t (or a dt/control_freq attribute), y, optional ydot, f as datasets in the group or "
@@ -199,7 +199,7 @@ def add_recording_commands(sub: Any) -> None:
     m.set_defaults(func=cmd_import_demos)
 
     e = sub.add_parser(
-        "export-demos", help="write a dataset as one CSV table in the importer's format",
+        "export-demos", help=HELP["export-demos"],
         description="Columns demo_id, t [s], the channels (the scoop's y [m], ydot [m/s], f [N]), label "
         "(success/failure) and the environment values, one row per sample; `judgeopt import-demos` reads it back "
         "to the same dataset. The responses are written (an imported dataset holds its recordings as both commands "

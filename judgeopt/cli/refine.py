@@ -7,6 +7,8 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from judgeopt.cli.commands import HELP
+
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
@@ -107,7 +109,7 @@ def add_refine_commands(sub: argparse._SubParsersAction) -> None:
     from judgeopt.cli.common import OVERWRITE, QUIET, jobs_option, out_option, positive, seed_option, threads_option
     from judgeopt.cli.planners import add_limit_range_arguments, add_problem_arguments
 
-    r = sub.add_parser("refine", help="close the loop in simulation: plan, replay, add the outcomes, fine-tune the judge",
+    r = sub.add_parser("refine", help=HELP["refine"],
                        description="Each round plans for --n fresh environments with the current judge, replays "
                        "every plan in PyBullet, adds the labelled outcomes to the training data and fine-tunes the "
                        "judge (and with --generator-epochs the generator). Parallel like collection; a rerun "

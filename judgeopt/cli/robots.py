@@ -7,6 +7,8 @@ import argparse
 import json
 from typing import Any
 
+from judgeopt.cli.commands import HELP
+
 
 def describe(name: str, reach: bool = False, check: bool = False) -> dict[str, Any]:
     """One arm as a dict: its config, the joints' limits from the written URDF (Pinocchio); with
@@ -75,8 +77,13 @@ def cmd_robots(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_robots_command(sub: argparse._SubParsersAction, parents: list) -> None:
-    r = sub.add_parser("robots", help="list the arms judgeopt can simulate and plan for, with their limits",
+def add_robots_command(sub: argparse._SubParsersAction, parents: list | None = None) -> None:
+    """Add `robots` (`parents`: its shared options, default --json)."""
+    if parents is None:
+        from judgeopt.cli.common import JSON
+
+        parents = [JSON]
+    r = sub.add_parser("robots", help=HELP["robots"],
                        description="Each arm (--robot NAME on solve, collect, evaluate, render): its joints' velocity "
                        "and effort limits as the simulator and planners read them, its mass, where its base stands in "
                        "the scene, and every figure of its description file replaced by the maker's, with the source. "

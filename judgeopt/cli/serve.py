@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
+from judgeopt.cli.commands import HELP
 from judgeopt.cli.common import number, positive
 
 
@@ -29,7 +30,7 @@ def add_serve_command(sub: argparse._SubParsersAction) -> None:
     from judgeopt.serve.config import ServeConfig
 
     d = ServeConfig()
-    s = sub.add_parser("serve", help="answer plan requests over HTTP (the models loaded once per worker)",
+    s = sub.add_parser("serve", help=HELP["serve"],
                        description="A planning service for a robot stack: POST /v1/plan answers with the object "
                        "`judgeopt solve --json` prints; worker processes each hold the models; a bounded queue (503 with "
                        "Retry-After when full), a deadline per request (504), a dead worker replaced; SIGTERM finishes "

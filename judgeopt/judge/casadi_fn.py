@@ -19,7 +19,7 @@ Backends (measured by benchmarks/bench_judge_casadi.py and bench_judge_ipopt.py,
   "l4casadi"   ("auto" where installed and the use needs float64) l4casadi 2.0: TorchScript traces
                of the unrolled network (one-Linear LSTM cell, float64) compiled into a shared
                library, cached per model. Its C++ side casts inputs to float32, so inputs are sent
-               as exact float32 hi/lo halves (see _split). The fastest float64 backend, but 2-4x
+               as exact float32 hi/lo halves (see judge.compiled.split). The fastest float64 backend, but 2-4x
                slower than the float32 ones: the unrolled cell runs op by op in float64. About
                16 s (TCN 2-5 s) to build once per model.
   "torch"      a casadi.Callback around torch autograd (reverse mode: one backward pass; the
@@ -41,7 +41,6 @@ from __future__ import annotations
 
 import hashlib
 import importlib.metadata
-import importlib.util
 import json
 import logging
 import os
@@ -49,7 +48,6 @@ import shutil
 import sys
 import time
 import warnings
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -62,34 +60,11 @@ from judgeopt.cbuild import CompileError, compiled_library, source_digest
 from judgeopt.errors import Missing
 from judgeopt.files import CACHE_FIX, make_temp_dir, publish_dir
 from judgeopt.judge.archs import casadi_sigmoid
-from judgeopt.judge.backends import BACKENDS, DEFAULT_BACKEND, GRAPH_BACKENDS
-from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, sigmoid
+from judgeopt.judge.backends import AUTO_L4CASADI32, BACKENDS, DEFAULT_BACKEND, GRAPH_BACKENDS, choose_backend  # noqa: F401
+from judgeopt.judge.compiled import SPLIT_BITS, CasadiJudge, sigmoid, warm, wrap_library
+from judgeopt.judge.model import Judge, JudgeConfig, JudgeError
 
-#: architectures whose l4casadi32 measured <= 1.1x the torch32 callback's time for value + gradient
-#: (benchmarks/bench_judge_casadi.py, docs/judge.md "l4casadi in float32"); "auto" gives the
-#: others torch32. An architecture is added here by measurement, not by default.
-AUTO_L4CASADI32 = frozenset({"lstm", "tcn"})
 log = logging.getLogger("judgeopt")
-
-
-def choose_backend(backend: str = DEFAULT_BACKEND, noise_tolerant: bool = False,
-                   config: JudgeConfig | None = None) -> str:
-    """`backend` itself, or for "auto" the fastest one for the use. Where ~1e-7 relative noise
-    is harmless (`noise_tolerant`: the judge as a constraint): l4casadi32 (the network in float32
-    inside l4casadi) where l4casadi is installed and the architecture (`config`; None counts as
-    the LSTM) is in AUTO_L4CASADI32, else the torch32 callback; both are 3-4x faster than any
-    float64 backend. Otherwise l4casadi (float64) where it is installed, else native (torch for
-    an architecture without a CasADi graph). build_casadi_judge falls back from an "auto"
-    l4casadi32 that fails to build to torch32, with one warning line."""
-    if backend != "auto":
-        return backend
-    installed = importlib.util.find_spec("l4casadi") is not None
-    if noise_tolerant:
-        arch = config.arch if config is not None else "lstm"
-        return "l4casadi32" if installed and arch in AUTO_L4CASADI32 else "torch32"
-    if installed:
-        return "l4casadi"
-    return "native" if config is None or config.spec.casadi_graph else "torch"
 
 
 def backends_for(config: JudgeConfig) -> tuple[str, ...]:
@@ -99,39 +74,6 @@ def backends_for(config: JudgeConfig) -> tuple[str, ...]:
 
 class CasadiBuildError(Missing, JudgeError):
     """A backend that could not be built (compiler missing, l4casadi failure, ...)."""
-
-
-@dataclass
-class CasadiJudge:
-    """A built judge function and how it came to be. Keep this object alive while the
-    Function is used: the torch backend's callbacks live in Python."""
-
-    fn: cs.Function
-    backend: str
-    build_seconds: float
-    cache_hit: bool = False
-    cache_dir: Path | None = None
-    horizon: int = 0
-    n_env: int = 0
-    _keep: list[Any] = field(default_factory=list, repr=False)
-
-    def __call__(self, *args: Any) -> Any:
-        return self.fn(*args)
-
-    def value_and_gradient(self, traj: np.ndarray, env: np.ndarray) -> tuple[float, np.ndarray, np.ndarray]:
-        """logit and its gradient w.r.t. the flattened trajectory and env (convenience, numeric)."""
-        grad = self._grad_fn()
-        out = grad(np.asarray(traj, float).ravel(), np.asarray(env, float).ravel())
-        return float(out[0]), np.asarray(out[1]).ravel(), np.asarray(out[2]).ravel()
-
-    def _grad_fn(self) -> cs.Function:
-        if not hasattr(self, "_grad"):
-            x, e = cs.MX.sym("traj", self.fn.size1_in(0)), cs.MX.sym("env", self.fn.size1_in(1))
-            logit = self.fn(x, e)[0]
-            g = cs.gradient(logit, cs.vertcat(x, e))  # one reverse sweep for both inputs
-            n = x.size1()
-            self._grad = cs.Function("judge_value_grad", [x, e], [logit, g[:n], g[n:]])
-        return self._grad
 
 
 def default_cache_dir() -> Path:
@@ -203,35 +145,57 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
         fn, hit, where = _l4casadi32_function(judge, root)
     else:
         fn, hit, where = _l4casadi_function(judge, root)
-    x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", judge.config.n_env)
     if backend == "compiled":
+        x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", judge.config.n_env)
         logit, prob = fn(x, e)
+        wrapped = cs.Function(name, [x, e], [logit, prob], ["traj", "env"], ["logit", "prob"])
     else:
-        z = _normalized(judge, x, e)
-        out = fn((z if backend == "l4casadi32" else _split(z)).T)
-        logit, prob = out[0, 0], out[0, 1]
-    wrapped = cs.Function(name, [x, e], [logit, prob], ["traj", "env"], ["logit", "prob"])
+        cfg = judge.config
+        wrapped = wrap_library(fn, backend, judge.normalization(), cfg.horizon, cfg.n_channels, cfg.n_env, name)
     out = CasadiJudge(wrapped, backend, 0.0, cache_hit=hit, cache_dir=where, horizon=judge.config.horizon,
                       n_env=judge.config.n_env, _keep=[fn])
     if backend == "l4casadi32":
-        _warm(out, judge)
+        try:
+            warm(out, judge.normalization(), judge.config.horizon)
+        except Exception as exc:  # the library loaded but does not evaluate: a build error, so "auto" falls back
+            raise CasadiBuildError(f"the built library does not evaluate: {_one_line(exc)}") from None
     out.build_seconds = time.perf_counter() - t0
     return out
 
 
-def _warm(cj: CasadiJudge, judge: Judge) -> None:
-    """Two value + gradient calls at the normalisation's means: TorchScript's profiling executor
-    profiles the traces on their first call and optimises them on the second (measured on the
-    first six calls in a fresh process: LSTM 78, 13, 3.0, 2.6 ms; TCN 27, 37, 2.8, 2.3 ms), so
-    without this the first solve would pay 40-90 ms that no later one pays."""
-    n1 = judge.config.horizon + 1
-    traj = np.tile(judge.x_mean.double().numpy(), n1)
-    env = judge.e_mean.double().numpy()
-    try:
-        for shift in (0.0, 1e-3):
-            cj.value_and_gradient(traj + shift, env)
-    except Exception as exc:  # the library loaded but does not evaluate: a build error, so "auto" falls back
-        raise CasadiBuildError(f"the built library does not evaluate: {_one_line(exc)}") from None
+#: the name of an l4casadi library's function: this prefix and its cache key (the folder's name)
+_LIBRARY_PREFIX = {"l4casadi": "judge_l4c_", "l4casadi32": "judge_l4c32_"}
+
+
+def remember_library(judge: Judge, meta: dict[str, Any], cj: CasadiJudge) -> None:
+    """Record the library `cj` was built from (or found as) for the judge file whose metadata is
+    `meta`, so that the next solve loads it without torch (judge.compiled.recall); nothing for a
+    backend that needs torch's Python package (the callbacks) or has no library."""
+    from judgeopt.judge.compiled import RECALLED, LibraryRecord, file_digests, installed_versions, remember
+
+    if cj.backend not in RECALLED or cj.cache_dir is None:
+        return
+    name = _LIBRARY_PREFIX[cj.backend] + cj.cache_dir.name
+    lib = cj.cache_dir / f"lib{name}.so"
+    if not lib.is_file():
+        return
+    record = LibraryRecord(meta["weights_sha256"], cj.backend, str(lib.resolve()), name, judge.normalization(),
+                           judge.config.to_dict(), installed_versions(),
+                           file_digests(generating_sources(judge, cj.backend)))
+    remember(default_cache_dir(), record)
+
+
+def generating_sources(judge: Judge, backend: str) -> list[Path]:
+    """The source files of the code that generates and wraps `backend`'s library for `judge`
+    (_generating_code's, this module and judge.compiled): a fast start's record (judge.compiled)
+    holds their digests, so an edit to any of them sends the next solve through torch again."""
+    import inspect
+
+    from judgeopt.judge import compiled
+
+    model = _flat_model(judge, backend) if backend in ("l4casadi", "l4casadi32") else None
+    files = {Path(inspect.getsourcefile(obj)) for obj in _generating_code(judge, backend, model)}
+    return sorted(files | {Path(__file__), Path(compiled.__file__)})
 
 
 def _n_traj(judge: Judge) -> int:
@@ -478,21 +442,7 @@ class _redirect_fd:
 #: as z_hi = floor(z 2^b) / 2^b (exactly representable in float32 while |z| < 2^(24-b)) plus
 #: z_lo = z - z_hi (in [0, 2^-b), its float32 rounding ~1e-11), and the model adds them in
 #: float64. floor has zero derivative, so the gradient flows through z_lo unchanged.
-_SPLIT_BITS = 12
-
-
-def _normalized(judge: Judge, x: cs.MX, e: cs.MX) -> cs.MX:
-    """The normalised inputs [x; e] (column), computed by CasADi in float64."""
-    n1 = judge.config.horizon + 1
-    mean = np.concatenate([np.tile(judge.x_mean.double().numpy(), n1), judge.e_mean.double().numpy()])
-    std = np.concatenate([np.tile(judge.x_std.double().numpy(), n1), judge.e_std.double().numpy()])
-    return (cs.vertcat(x, e) - cs.DM(mean)) / cs.DM(std)
-
-
-def _split(z: cs.MX) -> cs.MX:
-    """[z_hi; z_lo] of the normalised inputs z (see _SPLIT_BITS)."""
-    z_hi = cs.floor(z * 2.0**_SPLIT_BITS) / 2.0**_SPLIT_BITS
-    return cs.vertcat(z_hi, z - z_hi)
+_SPLIT_BITS = SPLIT_BITS  # judge.compiled.split sends them
 
 
 class _SplitInput(nn.Module):

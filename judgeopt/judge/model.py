@@ -19,6 +19,7 @@ from torch import nn
 from judgeopt.judge.archs import DEFAULT_ARCH, SHARED_FIELDS, Arch, get_arch
 # the LSTM's export forms lived here before the architectures had modules of their own
 from judgeopt.judge.archs.lstm import ConcatLSTMCell, UnrolledJudge, lstm_layer_weights  # noqa: F401
+from judgeopt.judge.compiled import sigmoid  # noqa: F401  (judge p's, here before the fast start had a module)
 from judgeopt.judge.errors import JudgeError, TrajectoryError
 from judgeopt.trajectory import CHANNELS, DEFAULT_DT, DEFAULT_HORIZON, UNITS
 
@@ -121,13 +122,6 @@ def select_env(env: np.ndarray, available: Sequence[str], wanted: Sequence[str])
     if missing:
         raise TrajectoryError(f"the judge needs environment variables {missing}, the data has only {available}")
     return np.asarray(env)[..., [available.index(n) for n in wanted]]
-
-
-def sigmoid(z: Any) -> Any:
-    """A judge's logit as a probability: exp(-log(1 + exp(-z))), with no overflow warning for a
-    confident logit (z < -709). A float for a number, an array for an array."""
-    p = np.exp(-np.logaddexp(0.0, -np.asarray(z, dtype=float)))
-    return float(p) if p.ndim == 0 else p
 
 
 class Judge(nn.Module):

@@ -10,12 +10,16 @@ saving is caught on load.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 from judgeopt import __version__
 from judgeopt.formats.header import header
 from judgeopt.formats.model_files import model_paths, read_meta, read_weights, write_model
-from judgeopt.judge.model import Judge, JudgeConfig, JudgeError, TrajectoryError
+from judgeopt.judge.compiled import TrajectoryFormat
+from judgeopt.judge.errors import JudgeError, TrajectoryError
+
+if TYPE_CHECKING:  # the network (torch) is imported where a judge is loaded or saved, not to read its metadata
+    from judgeopt.judge.model import Judge, JudgeConfig
 
 FORMAT = "judgeopt-judge"
 VERSION = 1
@@ -47,6 +51,8 @@ def load_meta(path: str | Path) -> dict[str, Any]:
 
 def load_judge(path: str | Path, check_hash: bool = True) -> tuple[Judge, dict[str, Any]]:
     """(model in eval mode, metadata); every problem is a JudgeFileError naming the file."""
+    from judgeopt.judge.model import Judge, JudgeConfig
+
     pt, js = model_paths(path)
     meta = load_meta(path)
     try:
@@ -62,12 +68,20 @@ def load_judge(path: str | Path, check_hash: bool = True) -> tuple[Judge, dict[s
     return model.eval(), meta
 
 
-def check_compatible(meta: dict[str, Any] | JudgeConfig, horizon: int | None = None, dt: float | None = None,
+def check_compatible(meta: dict[str, Any] | JudgeConfig | TrajectoryFormat, horizon: int | None = None,
+                     dt: float | None = None,
                      channels: Sequence[str] | None = None, env_names: Sequence[str] | None = None) -> None:
     """Raise IncompatibleJudgeError saying exactly what differs between the judge's trajectory
     format and the given one (None: not checked). env_names are those AVAILABLE: the judge
     must find every variable it reads among them (order does not matter, it selects by name)."""
-    cfg = meta if isinstance(meta, JudgeConfig) else JudgeConfig.from_dict(meta["config"])
+    cfg = meta
+    if isinstance(meta, dict):
+        try:  # the trajectory format alone, without torch
+            cfg = TrajectoryFormat.of(meta["config"])
+        except TrajectoryError:  # an older file that leaves fields to their defaults: the full config reads it
+            from judgeopt.judge.model import JudgeConfig
+
+            cfg = JudgeConfig.from_dict(meta["config"])
     problems = []
     if horizon is not None and int(horizon) != cfg.horizon:
         problems.append(f"horizon N = {horizon} but the judge was trained on N = {cfg.horizon} "

@@ -11,7 +11,7 @@ from judgeopt.planners.base import PlannerSpec, register, register_installed
 
 register(PlannerSpec(
     "amortized", "the paper's generator (eqs. 2-4): a plan in a millisecond, limits held softly",
-    "judgeopt.planners.generator:AmortizedPlanner", needs=("judge", "generator"), models=("judge", "generator"),
+    "judgeopt.planners.amortized:AmortizedPlanner", needs=("judge", "generator"), models=("judge", "generator"),
     default=True, paper=True))
 register(PlannerSpec(
     "direct", "Ipopt over the judge's CasADi function, every limit and the terminal state hard, warm-started from "

@@ -11,13 +11,18 @@ model, forces clipped): one batched judge call, a few milliseconds.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-from judgeopt.judge.model import Judge
 from judgeopt.planners.dynamics import plan_from_parts, positions
 from judgeopt.planners.problem import Problem
 from judgeopt.tasks import get_task
 from judgeopt.trajectory import Plan
+
+if TYPE_CHECKING:
+    from judgeopt.judge.compiled import CompiledJudge
+    from judgeopt.judge.model import Judge
 
 #: random demonstration commands tried beside the min-jerk move, and their seed (fixed: the same
 #: problem and environment always start from the same plan)
@@ -68,7 +73,7 @@ def fit_to_limits(problem: Problem, values: np.ndarray) -> Plan:
     return plan_from_parts(problem, np.stack(qs, 1), np.stack(vs, 1), np.stack(f, 1))
 
 
-def cold_start(problem: Problem, env: dict[str, float], judge: Judge, min_jerk: Plan,
+def cold_start(problem: Problem, env: dict[str, float], judge: "Judge | CompiledJudge", min_jerk: Plan,
                target_logit: float = np.inf) -> tuple[Plan, str]:
     """`min_jerk` where the judge already scores it at `target_logit` (or the task's commands
     are for another horizon), else the judge's best of it and CANDIDATES of the task's random

@@ -29,13 +29,12 @@ from __future__ import annotations
 import copy
 import time
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
 
-from judgeopt.judge.casadi_fn import CasadiJudge
-from judgeopt.judge.ensemble import pessimistic
-from judgeopt.judge.model import Judge, sigmoid
+from judgeopt.judge.compiled import CasadiJudge, CompiledJudge, sigmoid
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
 from judgeopt.planners.base import BuildContext, Planner
@@ -45,6 +44,9 @@ from judgeopt.planners.trust_region import TrustRegion, load_trust_region
 from judgeopt.verdict.risk import HOLD_TOL
 from judgeopt.planners.result import PlanResult, constraint_residuals, infeasible_result, meets_target
 from judgeopt.trajectory import Plan
+
+if TYPE_CHECKING:
+    from judgeopt.judge.model import Judge
 
 # variable scales (m, m/s, m/s^2, N): the scaled unknowns are O(1), which L-BFGS needs
 SCALE_Q, SCALE_V, SCALE_A, SCALE_F = 0.1, 0.5, 5.0, 10.0
@@ -69,7 +71,7 @@ def softplus(z: cs.MX) -> cs.MX:
     return cs.fmax(z, 0) + cs.log1p(cs.exp(-cs.fabs(z)))
 
 
-def judge_env(judge: Judge, env: dict[str, float]) -> np.ndarray:
+def judge_env(judge: "Judge | CompiledJudge", env: dict[str, float]) -> np.ndarray:
     """The judge's environment vector (it may read only some of the problem's variables)."""
     return np.array([env[k] for k in judge.config.env_names], dtype=float)
 
@@ -112,7 +114,7 @@ class DirectPlanner(Planner):
     method = "direct"
     plans_env_sets = True
 
-    def __init__(self, problem: Problem, judge: Judge, cjudge: CasadiJudge, options: DirectOptions | None = None,
+    def __init__(self, problem: Problem, judge: "Judge | CompiledJudge", cjudge: CasadiJudge, options: DirectOptions | None = None,
                  members: list[CasadiJudge] | None = None, trust: TrustRegion | None = None,
                  samples: int = 1, case: str = "worst"):
         """`members`: an ensemble's CasADi judges (the objective becomes mean - pessimism * std
@@ -142,11 +144,11 @@ class DirectPlanner(Planner):
     @classmethod
     def build(cls, context: BuildContext) -> "DirectPlanner":
         """Its judge through l4casadi32 where l4casadi is installed, else the torch32 callback
-        (judge.casadi_fn.choose_backend; the library is built once per judge, a few seconds, and
-        loaded from the cache after), with the problem's ensemble and trust region; what the user
-        should know about them is added to the context's notes."""
+        (judge.backends.choose_backend; the library is built once per judge, a few seconds, and
+        loaded from the cache after; a fast start's CompiledJudge brings it loaded), with the problem's
+        ensemble and trust region; what the user should know about them is added to the context's notes."""
         from judgeopt.files import resolve
-        from judgeopt.judge.casadi_fn import DEFAULT_BACKEND, build_casadi_judge
+        from judgeopt.judge.backends import DEFAULT_BACKEND
         from judgeopt.judge.store import check_compatible
 
         problem, judge, notes = context.problem, context.judge, context.notes
@@ -161,7 +163,13 @@ class DirectPlanner(Planner):
         backend = context.casadi_backend or DEFAULT_BACKEND
         # the judge as a constraint (objective "target") tolerates float32's noise; -log p does not
         tolerant = problem.objective == "target"
-        cj = build_casadi_judge(judge, backend=backend, noise_tolerant=tolerant)
+        if isinstance(judge, CompiledJudge):  # the fast start: the library the torch path built, loaded without it
+            cj = judge.cjudge
+        else:
+            from judgeopt.judge.casadi_fn import build_casadi_judge, remember_library
+
+            cj = build_casadi_judge(judge, backend=backend, noise_tolerant=tolerant)
+            remember_library(judge, context.judge_meta, cj)
         members, trust = None, None
         if problem.ensemble:
             from judgeopt.judge.ensemble import load_ensemble
@@ -170,6 +178,8 @@ class DirectPlanner(Planner):
             for m in judges:
                 check_compatible(m.config, horizon=problem.steps, dt=problem.dt, channels=problem.channels,
                                  env_names=problem.env_names)
+            from judgeopt.judge.casadi_fn import build_casadi_judge
+
             members = [build_casadi_judge(m, backend=backend, noise_tolerant=tolerant) for m in judges]
             notes.append(f"direct: maximises mean - {problem.pessimism:g} std of the logits of "
                          f"{len(members)} judges ({problem.ensemble})")
@@ -458,6 +468,8 @@ class DirectPlanner(Planner):
 
     def _pessimistic(self, traj: cs.MX, env: cs.MX) -> cs.MX:
         """mean - pessimism * std of the members' logits (pessimism = inf: their minimum)."""
+        from judgeopt.judge.ensemble import pessimistic
+
         return pessimistic([m.fn(traj, env)[0] for m in self.members], self.problem.pessimism, cs.sqrt, cs.fmin, 1e-9)
 
     def _reached(self, x: np.ndarray, fixed: list[np.ndarray]) -> float:
@@ -598,6 +610,8 @@ class DirectPlanner(Planner):
         info = {"ipopt_status": ipopt_status, "warm_start": warm, "judge_calls": judge_calls, "rounds": rounds,
                 "judge_backend": self.cjudge.backend}
         if self.members:  # the ensemble's own prediction: the mean of its members' probabilities
+            from judgeopt.judge.ensemble import pessimistic
+
             z = np.array([float(m.fn(traj, je)[0]) for m in self.members])
             prob = float(np.mean(sigmoid(z)))
             bound = sigmoid(pessimistic(z, pr.pessimism))

@@ -20,32 +20,15 @@ state, horizon) stay fixed to the problem it was trained on.
 
 from __future__ import annotations
 
-from typing import Any
-
-import time
-from dataclasses import asdict, dataclass
-
 import numpy as np
 import torch
 from torch import nn
 
-from judgeopt.planners.dynamics import channel_order, plan_from_parts, step
-from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges, limits_of
-from judgeopt.planners.base import BuildContext, Planner
+# the planner and the config live with the numpy rollout (no torch); imported from here before
+from judgeopt.planners.amortized import AmortizedPlanner, GeneratorArrays, GeneratorConfig, OutputScales, input_size  # noqa: F401
+from judgeopt.planners.dynamics import channel_order, step
+from judgeopt.planners.limits import LimitRanges, limits_of
 from judgeopt.planners.problem import Problem
-from judgeopt.planners.result import PlanResult, constraint_residuals
-from judgeopt.trajectory import Plan
-
-
-@dataclass(frozen=True)
-class GeneratorConfig:
-    """Table 3: two fully connected layers of 150 units."""
-
-    hidden: int = 150
-    layers: int = 2
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 def per_axis(values: np.ndarray):
@@ -66,7 +49,7 @@ class Generator(nn.Module):
         self.conditioned = conditioned
         na, nf = problem.n_axes, problem.n_forces
         self.n_axes, self.n_forces = na, nf
-        n_in = 2 * na + 1 + len(problem.env_names) + (len(CONDITION_NAMES) if conditioned is not None else 0)
+        n_in = input_size(problem, conditioned)
         layers: list[nn.Module] = []
         for _ in range(self.config.layers):
             layers += [nn.Linear(n_in, self.config.hidden), nn.Tanh()]
@@ -84,13 +67,14 @@ class Generator(nn.Module):
             self.register_buffer("c_mid", torch.tensor(r.mean(1), dtype=torch.float32))
             self.register_buffer("c_half", torch.tensor(np.maximum(0.5 * (r[:, 1] - r[:, 0]), 1e-6),
                                                         dtype=torch.float32))
-        # output scales: forces around the middle of their range; accelerations that can
-        # cross the velocity range in a few steps
-        v = {k: pr.vec(k) for k in ("f_min", "f_max", "qdot_min", "qdot_max", "q_min", "q_max")}
-        self.f_mid, self.f_half = 0.5 * (v["f_min"] + v["f_max"]), 0.5 * (v["f_max"] - v["f_min"])
-        self.a_scale = (v["qdot_max"] - v["qdot_min"]) / (4 * pr.dt)
-        self.q_mid, self.q_half = 0.5 * (v["q_min"] + v["q_max"]), 0.5 * (v["q_max"] - v["q_min"])
-        self.v_half = 0.5 * (v["qdot_max"] - v["qdot_min"])
+        sc = OutputScales.of(problem)
+        self.f_mid, self.f_half, self.a_scale = sc.f_mid, sc.f_half, sc.a_scale
+        self.q_mid, self.q_half, self.v_half = sc.q_mid, sc.q_half, sc.v_half
+
+    def arrays(self) -> GeneratorArrays:
+        """The weights and buffers as numpy float64: what the amortised planner runs."""
+        state = {k: v.detach().cpu().numpy() for k, v in self.state_dict().items()}
+        return GeneratorArrays.from_state(self.problem, self.config, self.conditioned, state)
 
     def scales(self, limits: torch.Tensor | None) -> tuple:
         """(f_mid, f_half, a_scale, v_half): the problem's, or per-plan (B, 1) tensors from (B, 3)
@@ -147,76 +131,3 @@ class Generator(nn.Module):
             qs.append(q)
             vs.append(v)
         return torch.cat([torch.stack(qs, 1), torch.stack(vs, 1), torch.stack(fs, 1)], dim=2)[:, :, channel_order(pr)]
-
-
-class AmortizedPlanner(Planner):
-    """Plans with a trained generator in milliseconds; constraints are soft (penalties in
-    training), so the residuals are measured and reported, never assumed to be zero."""
-
-    method = "amortized"
-
-    def __init__(self, generator: Generator, problem: Problem, judge=None):
-        self.generator = generator.eval()
-        self.problem = problem
-        self.judge = judge
-        # numpy copies of the weights: one plan is 31 tiny matrix-vector products, where
-        # torch's per-call overhead (~0.1 ms) would dominate
-        linears = [m for m in generator.net if isinstance(m, nn.Linear)]
-        self._weights = [(m.weight.detach().double().numpy(), m.bias.detach().double().numpy()) for m in linears]
-        self._e_mid = generator.e_mid.double().numpy()
-        self._e_half = generator.e_half.double().numpy()
-        g = generator
-        if g.conditioned is not None:  # this problem's limits are the generator's extra inputs
-            lim = limits_of(problem)
-            self._c = (lim - g.c_mid.double().numpy()) / g.c_half.double().numpy()
-            qmax, fmin, fmax = lim
-            gp = g.problem
-            qdot_min = gp.vec("qdot_min")
-            self._scales = (np.full(g.n_forces, 0.5 * (fmin + fmax)), np.full(g.n_forces, 0.5 * (fmax - fmin)),
-                            (qmax - qdot_min) / (4 * gp.dt), 0.5 * (qmax - qdot_min))
-        else:
-            self._c = np.empty(0)
-            self._scales = (g.f_mid, g.f_half, g.a_scale, g.v_half)
-
-    @classmethod
-    def build(cls, context: BuildContext) -> "AmortizedPlanner":
-        """With the generator found for the context's limits (the registry leaves this planner out
-        where none covers them)."""
-        return cls(context.generator, context.problem, context.judge)
-
-    def plan(self, env: dict[str, float]) -> Plan:
-        """The generator's rollout in numpy float64 (equal to Generator.rollout to float32 rounding)."""
-        g, pr = self.generator, self.generator.problem
-        n, dt = pr.steps, pr.dt
-        f_mid, f_half, a_scale, v_half = self._scales
-        na, nf = g.n_axes, g.n_forces
-        en = (np.array([env[k] for k in pr.env_names]) - self._e_mid) / self._e_half
-        x = np.empty(2 * na + 1 + en.size + self._c.size)
-        x[2 * na + 1:2 * na + 1 + en.size] = en
-        x[2 * na + 1 + en.size:] = self._c
-        q, v = pr.vec("q0"), pr.vec("qdot0")
-        qs, vs, fs = np.empty((n + 1, na)), np.empty((n + 1, na)), np.empty((n + 1, nf))
-        for k in range(n + 1):
-            x[:na], x[na:2 * na], x[2 * na] = (q - g.q_mid) / g.q_half, v / v_half, 2 * k / n - 1
-            h = x
-            for w, b in self._weights[:-1]:
-                h = np.tanh(w @ h + b)
-            w, b = self._weights[-1]
-            o = w @ h + b
-            qs[k], vs[k], fs[k] = q, v, f_mid + f_half * o[:nf]
-            q, v = step(q, v, a_scale * o[nf:], dt)
-        return plan_from_parts(self.problem, qs, vs, fs)
-
-    def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
-        env = self.problem.env_dict(env)
-        t0 = time.perf_counter()
-        plan = self.plan(env)
-        elapsed = time.perf_counter() - t0
-        prob = None
-        if self.judge is not None:
-            from judgeopt.planners.direct import judge_env
-
-            prob = float(self.judge.predict_proba(plan.as_array()[None], judge_env(self.judge, env)[None])[0])
-        return PlanResult(self.method, env, plan, prob, "generated", elapsed,
-                          constraint_residuals(self.problem, plan, env), iterations=None,
-                          message="one forward rollout (constraints soft)")

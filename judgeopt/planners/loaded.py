@@ -15,12 +15,12 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import TYPE_CHECKING, Any, Sequence
 
 import numpy as np
 
 from judgeopt.files import resolve
-from judgeopt.judge.model import Judge
+from judgeopt.judge.compiled import CompiledJudge
 from judgeopt.planners.base import (WARM_STARTS, BuildContext, Planner, default_planners, planner_names, spec_of,
                                     to_build, unknown, with_uses)
 from judgeopt.planners.problem import LIMIT_NAMES, Problem, ProblemError, ProblemFileError
@@ -29,6 +29,13 @@ from judgeopt.verdict.rules import assess
 from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.trajectory import PlanError
 from judgeopt.verdict.risk import RISK, annotate as annotate_risk
+
+if TYPE_CHECKING:
+    from judgeopt.judge.model import Judge
+
+#: the planners a fast start serves (fast_models): they only call the judge (no batched torch
+#: forward passes) and take the generator's numpy rollout
+FAST_PLANNERS = frozenset({"amortized", "direct"})
 
 @dataclass(frozen=True)
 class ChosenModels:
@@ -94,6 +101,81 @@ def without_generator() -> str:
     return " or ".join(f"--method {m}" for m in default_planners() if "generator" not in spec_of(m).needs)
 
 
+def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: str | None = None
+                ) -> tuple[CompiledJudge, dict, dict] | None:
+    """The models of a fast start (judge.compiled), as (judge, its metadata, {generator path: (arrays,
+    metadata)}): the judge as its built library and the generator as numpy arrays, read without
+    torch's Python package where a run has left them (the library's record, the weights' copy), else
+    made with torch, which leaves them. Either way the planners get the same models, so the first run
+    and the next ones answer alike (the amortised plan's judge p included), and one process answers a
+    request the same way before and after another request made it import torch.
+    None where the process has not enabled it (judge.compiled.enable_fast_start: solve and the
+    service's workers do), where a planner asked for is not in FAST_PLANNERS, for an ensemble, or where
+    the judge's backend has no library to load (l4casadi missing, a build that fell back to the torch
+    callback): the caller loads the torch models."""
+    import importlib.util
+
+    from judgeopt.files import cache_dir, sha256_file
+    from judgeopt.formats.model_files import model_paths
+    from judgeopt.judge.backends import DEFAULT_BACKEND, choose_backend
+    from judgeopt.judge.compiled import RECALLED, TrajectoryFormat, fast_start_enabled, recall
+    from judgeopt.judge.store import load_meta
+    from judgeopt.planners.store import load_generator_arrays
+    from judgeopt.threads import wanted_threads
+
+    problem = chosen.problem
+    if not fast_start_enabled() or not set(methods) <= FAST_PLANNERS or problem.ensemble \
+            or importlib.util.find_spec("l4casadi") is None:
+        return None
+    jmeta = load_meta(chosen.judge)
+    try:
+        fmt = TrajectoryFormat.of(jmeta["config"])
+    except ValueError:
+        return None
+    backend = choose_backend(casadi_backend or DEFAULT_BACKEND, problem.objective == "target", fmt)
+    if backend not in RECALLED:
+        return None
+    generators = {}
+    if chosen.generator is not None:
+        generators[chosen.generator] = load_generator_arrays(chosen.generator) or _torch_generator(chosen.generator)
+    found = None
+    try:
+        if sha256_file(model_paths(chosen.judge)[0]) == jmeta["weights_sha256"]:  # else load_judge says what is wrong
+            found = recall(cache_dir(), jmeta["weights_sha256"], backend, wanted_threads())
+    except OSError:
+        pass
+    cj = found[0] if found is not None else _build_library(chosen.judge, jmeta, casadi_backend, problem)
+    return None if cj is None else (CompiledJudge(cj, fmt), jmeta, generators)
+
+
+def _torch_generator(path: Path) -> tuple[Any, dict]:
+    """The generator at `path` read with torch (which leaves the weights' copy), as numpy arrays."""
+    from judgeopt.planners.store import load_generator
+    from judgeopt.threads import import_torch
+
+    import_torch()
+    gen, meta = load_generator(path)
+    return gen.arrays(), meta
+
+
+def _build_library(path: Path, jmeta: dict, casadi_backend: str | None, problem: Problem) -> Any:
+    """The judge at `path` built (or found) as its library with torch, as the direct solve builds it,
+    and its record left for the next run; None where the build fell back to a torch callback."""
+    from judgeopt.judge.backends import DEFAULT_BACKEND
+    from judgeopt.judge.casadi_fn import build_casadi_judge, remember_library
+    from judgeopt.judge.compiled import RECALLED
+    from judgeopt.judge.store import load_judge
+    from judgeopt.threads import import_torch
+
+    import_torch()  # on the threads the command line asked for
+    judge, _ = load_judge(path)
+    cj = build_casadi_judge(judge, backend=casadi_backend or DEFAULT_BACKEND, noise_tolerant=problem.objective == "target")
+    if cj.backend not in RECALLED:
+        return None
+    remember_library(judge, jmeta, cj)
+    return cj
+
+
 @dataclass(frozen=True)
 class ModelRequest:
     """What the user asked for: a judge and a generator (None: the problem's judge, the generator
@@ -110,7 +192,7 @@ class Planners:
     """Every planner asked for, built once for one problem and judge, run for many environments."""
 
     problem: Problem
-    judge: Judge
+    judge: "Judge | CompiledJudge"  # CompiledJudge: a fast start (fast_models)
     judge_meta: dict
     chosen: ChosenModels
     request: ModelRequest
@@ -124,7 +206,8 @@ class Planners:
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
     evidence: dict = field(default_factory=dict)  # the file's held-out evidence (verdict.risk.evidence_key -> Evidence)
     risk: float = RISK  # the failure rate a "likely" may carry (its upper confidence bound on the evidence)
-    generators: dict = field(default_factory=dict)  # generator path -> (Generator, meta), shared by with_limits copies
+    #: generator path -> (Generator or GeneratorArrays, meta), shared by with_limits copies
+    generators: dict = field(default_factory=dict)
     for_sets: dict = field(default_factory=dict)  # (method, samples, case) -> its planner for environment sets
 
     @classmethod
@@ -142,10 +225,18 @@ class Planners:
             raise ProblemError(f"unknown method(s) {bad}; choose from {list(planner_names())}")
         methods = with_uses(methods)
         chosen = choose_models(problem, to_build(methods), judge, generator, models_dir)
-        jmodel, jmeta = load_judge(chosen.judge)
+        fast = fast_models(chosen, to_build(methods), casadi_backend)
+        if fast is not None:
+            jmodel, jmeta, generators = fast
+        else:
+            from judgeopt.threads import import_torch
+
+            import_torch()  # on the threads the command line asked for
+            (jmodel, jmeta), generators = load_judge(chosen.judge), {}
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, chosen, ModelRequest(judge, generator, models_dir, casadi_backend),
-                  tuple(m for m in planner_names() if m in methods), notes=coverage_notes(problem, jmeta))
+                  tuple(m for m in planner_names() if m in methods), notes=coverage_notes(problem, jmeta),
+                  generators=generators)
         out._load_generator()
         out.built = out._build()
         out._settings()
@@ -166,7 +257,7 @@ class Planners:
     def _load_generator(self) -> None:
         """The generator chosen, loaded once, with what the user should know about it; none where a
         planner asked for needs one is an error naming what to do."""
-        from judgeopt.planners.store import load_generator, matches
+        from judgeopt.planners.store import matches
 
         gpath, models_dir = self.generator_path, self.request.models_dir
         if gpath is None:
@@ -180,25 +271,34 @@ class Planners:
                     f"{p.source or 'PROBLEM'} [--conditioned] ... --out models/NAME`, "
                     f"pass one with --generator, or use {without_generator()}")
             return
-        _, gmeta = self.generators[gpath] = load_generator(gpath)
+        _, gmeta = self._generator(gpath)
         if not matches(gmeta, self.problem):
             self.notes.append(f"generator {gpath} was trained for other limits; its plan may violate these "
                               "(reported below)")
         if gmeta.get("judge", {}).get("weights_sha256") != self.judge_meta["weights_sha256"]:
             self.notes.append(f"generator {gpath} was trained against another judge")
 
+    def _generator(self, gpath: Path) -> tuple[Any, dict]:
+        """(generator, metadata) at `gpath`, loaded once: its numpy arrays where this is a fast start
+        (the judge a CompiledJudge) and the cache has them, else the torch Generator."""
+        from judgeopt.planners.store import load_generator, load_generator_arrays
+        from judgeopt.threads import import_torch
+
+        if gpath not in self.generators:
+            fast = load_generator_arrays(gpath) if isinstance(self.judge, CompiledJudge) else None
+            if fast is None:
+                import_torch()  # on the threads the command line asked for
+            self.generators[gpath] = fast or load_generator(gpath)
+        return self.generators[gpath]
+
     def _build(self, previous: dict[str, Planner] | None = None) -> dict[str, Planner]:
         """Every planner to run, each after what it needs. One built before, for other limits, is
         carried over by its own with_limits where it can; one that needs a generator where none
         covers the limits is left out (one built before, only warm-starting others, stays)."""
-        from judgeopt.planners.store import load_generator
-
         previous = previous or {}
         gpath = self.generator_path
-        if gpath is not None and gpath not in self.generators:
-            self.generators[gpath] = load_generator(gpath)
         context = BuildContext(self.problem, self.judge, self.judge_meta,
-                               self.generators[gpath][0] if gpath is not None else None,
+                               self._generator(gpath)[0] if gpath is not None else None,
                                self.request.casadi_backend, self.notes)
         built: dict[str, Planner] = {}
         for m in to_build(self.methods):

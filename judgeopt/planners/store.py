@@ -17,16 +17,19 @@ unchanged.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from judgeopt import __version__
 from judgeopt.errors import BadInput
 from judgeopt.files import resolve
 from judgeopt.formats.header import header
-from judgeopt.formats.model_files import model_paths, read_meta, read_weights, write_model
-from judgeopt.planners.generator import Generator, GeneratorConfig
+from judgeopt.formats.model_files import model_paths, read_arrays, read_meta, read_weights, write_model
+from judgeopt.planners.amortized import GeneratorArrays, GeneratorConfig
 from judgeopt.planners.limits import CONDITION_NAMES, LimitRanges
 from judgeopt.planners.problem import Problem, ProblemError
+
+if TYPE_CHECKING:  # the network (torch) is imported where a generator is loaded for training or saved
+    from judgeopt.planners.generator import Generator
 
 FORMAT = "judgeopt-generator"
 VERSION = 2  # the newest this reads; 1: per-limit generators, 2: conditioned ones
@@ -67,6 +70,8 @@ def load_generator_meta(path: str | Path) -> dict[str, Any]:
 
 
 def load_generator(path: str | Path) -> tuple[Generator, dict[str, Any]]:
+    from judgeopt.planners.generator import Generator
+
     pt, js = model_paths(path)
     meta = load_generator_meta(path)
     state = read_weights(path, meta, GeneratorFileError)
@@ -77,6 +82,22 @@ def load_generator(path: str | Path) -> tuple[Generator, dict[str, Any]]:
     except (RuntimeError, TypeError) as exc:
         raise GeneratorFileError(f"{pt}: weights do not fit the architecture in {js.name} ({exc})") from None
     return gen.eval(), meta
+
+
+def load_generator_arrays(path: str | Path) -> tuple[GeneratorArrays, dict[str, Any]] | None:
+    """The generator at `path` as numpy arrays without torch (formats.model_files.read_arrays: the
+    cache's copy of its weights); None where there is no valid copy (load_generator makes one)."""
+    _, js = model_paths(path)
+    meta = load_generator_meta(path)
+    state = read_arrays(path, meta)
+    if state is None:
+        return None
+    try:
+        problem = Problem.from_dict({**meta["problem"], "source": str(js)})
+        return GeneratorArrays.from_state(problem, GeneratorConfig(**meta["config"]), conditioned_ranges(meta),
+                                          state), meta
+    except (TypeError, ValueError):  # weights that do not fit: load_generator says so in one line
+        return None
 
 
 def matches(meta: dict[str, Any], problem: Problem, judge_sha: str | None = None) -> bool:

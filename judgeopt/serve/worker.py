@@ -146,16 +146,19 @@ class Planning:
 
 
 def run(conn: Any, options: WorkerOptions) -> None:
-    """A worker process's life: one torch thread, the models loaded, then requests until told to
-    stop. SIGINT and SIGTERM are the server's to handle (a Ctrl-C in the terminal or systemd's stop
-    reaches the whole process group): the worker finishes what it holds and stops when asked."""
+    """A worker process's life: one torch thread, the models loaded (without torch where a fast
+    start can: planners.loaded.fast_models), then requests until told to stop. SIGINT and SIGTERM
+    are the server's to handle (a Ctrl-C in the terminal or systemd's stop reaches the whole process
+    group): the worker finishes what it holds and stops when asked."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     for name in ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS"):
         os.environ[name] = "1"  # before torch and numpy start their pools
+    from judgeopt.judge.compiled import enable_fast_start
     from judgeopt.threads import set_threads
 
-    set_threads(1)
+    set_threads(1, lazy=True)  # torch is imported where a request needs it (judge.compiled: a fast start)
+    enable_fast_start()
     planning = Planning(options)
     try:
         loaded = planning.preload()

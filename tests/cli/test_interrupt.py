@@ -58,7 +58,7 @@ def test_an_interrupt_after_a_file_was_written_names_it(cli, monkeypatch, capsys
 
 def test_an_interrupt_while_the_parser_is_built_is_one_line_for_the_command_typed(cli, monkeypatch, capsys):
     """Building the parser imports most of judgeopt (tasks, planners, problems): the first second."""
-    def loading():
+    def loading(command=None):
         raise KeyboardInterrupt
 
     monkeypatch.setattr(cli, "build_parser", loading)

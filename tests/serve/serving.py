@@ -117,22 +117,27 @@ class Service:
             return self.process.wait(10)
 
 
-def start(tmp: Path, *options: str, token: str | None = None) -> Service:
-    """A server on a free loopback port, its models loaded (stderr: `tmp`/server.log)."""
+def start(tmp: Path, *options: str, token: str | None = None, env: dict[str, str] | None = None) -> Service:
+    """A server on a free loopback port, its models loaded (stderr: `tmp`/server.log; `env`: more
+    environment variables)."""
     args = [sys.executable, "-m", "judgeopt", "serve", "--port", "0", *options]
     if token is not None:
         (tmp / "token").write_text(token + "\n")
         args += ["--token-file", str(tmp / "token")]
     log = tmp / "server.log"
     process = subprocess.Popen(args, cwd=REPO, stdout=subprocess.PIPE, stderr=log.open("w"), text=True,
-                               env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                               env={**os.environ, "PYTHONUNBUFFERED": "1", **(env or {})})
     ready, _, _ = select.select([process.stdout], [], [], 60)
     line = process.stdout.readline() if ready else ""
     if "listening on" not in line:
         process.kill()
         raise AssertionError(f"the server did not start: {line!r} {log.read_text()[-2000:]}")
     service = Service(line.split("listening on ")[1].split()[0], process, log, token)
-    service.wait_ready()
+    try:
+        service.wait_ready()
+    except AssertionError:  # a server that never got ready is stopped, not left running after the test
+        service.stop()
+        raise
     return service
 
 
