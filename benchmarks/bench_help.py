@@ -35,7 +35,7 @@ def timed(cmd: list[str], code: str | None = None) -> tuple[float, float]:
     res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=code)
     wall = time.perf_counter() - t0
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if res.returncode != 0:
+    if res.returncode not in (0, 4):  # 4: a plan unlikely to succeed is still an answer
         raise SystemExit(f"{' '.join(cmd)} failed: {res.stderr.strip()[-500:]}")
     return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 

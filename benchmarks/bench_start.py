@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import select
 import signal
 import statistics
@@ -29,6 +28,7 @@ import sys
 import time
 from pathlib import Path
 
+from bench_help import timed
 from busy import Load
 
 REPO = Path(__file__).resolve().parents[1]
@@ -39,21 +39,6 @@ FLOORS = {"python alone": "pass", "import numpy, casadi": "import numpy, casadi"
           "load libtorch (ctypes)": "import ctypes, importlib.metadata as m; "
           "ctypes.CDLL(str(m.distribution('torch').locate_file('torch/lib/libtorch_cpu.so')))",
           "import torch": "import torch"}
-
-
-def timed(cmd: list[str], code: str | None = None) -> tuple[float, float]:
-    """(wall, CPU) seconds of one fresh process running `cmd` (on the judgeopt in `code` if given)."""
-    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
-    if code:
-        env["PYTHONPATH"] = code
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True, env=env, cwd=code)
-    wall = time.perf_counter() - t0
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    if res.returncode not in (0, 4):  # 4: a plan unlikely to succeed is still an answer
-        raise SystemExit(f"{' '.join(cmd)} failed: {res.stderr.strip()[-500:]}")
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def serve_ready(code: str) -> float:
