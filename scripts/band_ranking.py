@@ -47,7 +47,7 @@ def main() -> None:
     if not rows:
         raise SystemExit(f"{args.folders}: no replayed {args.method} plans that hold their limits")
     calibrators, evidence = load_calibration_file(resolve(args.calibration))
-    calibrate_rows(rows, calibrators, list(rows[0]["environment"]))
+    calibrate_rows(rows, calibrators)
     # a raise of a judge's p below 0.5 goes no higher than the evidence backs (as solve prints it)
     floor = next((e.raise_floor for e in evidence.values() if e.method == args.method), 0.0)
     y = np.array([bool(r["simulated_success"]) for r in rows])

@@ -102,7 +102,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
     for rs in results.values():  # with the calibration and evidence there are now (cached plans may predate them)
-        rescore(rs, calibrators, evidence, problem.env_names, args.risk)
+        rescore(rs, calibrators, evidence, args.risk)
     summary = summarise(rows, results)
     title = table.title.format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
                                f_min=problem.f_min, f_max=problem.f_max, env=_env_text(problem))
@@ -153,7 +153,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
     for rs in results.values():  # with the calibration and evidence there are now (cached plans may predate them)
-        rescore(rs, calibrators, evidence, problem.env_names, args.risk)
+        rescore(rs, calibrators, evidence, args.risk)
     summary = summarise_sweep(sets, rows, results, methods)
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
     at = f" at the limits of {problem.name}" if what == "constraint" else ""
@@ -180,7 +180,7 @@ def cmd_edge(args: argparse.Namespace) -> int:
         problem = base if q is None else base.with_overrides(qdot_max=q)
         rows += run_edge(problem, cfg, methods, args.n, args.seed, out, vary, n_jobs=args.jobs,
                          scheduler=args.scheduler, chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    rescore(rows, calibrators, evidence, base.env_names, args.risk)  # cached plans may predate the calibration
+    rescore(rows, calibrators, evidence, args.risk)  # cached plans may predate the calibration
     summary = summarise_edge(rows, methods)
     speeds = ", ".join(f"{q:g}" for q in args.qdot_max) if args.qdot_max else f"{base.qdot_max:g}"
     env = _env_text(base) if vary is None else _env_text(base.with_overrides(**{vary[0]: list(vary[1])}))
@@ -210,7 +210,7 @@ def cmd_band(args: argparse.Namespace) -> int:
     calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     rows = run_band(problem, cfg, methods, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                     chunk=args.chunk, models_dir=args.models, ensemble=args.ensemble, progress=not args.quiet)
-    rescore(rows, calibrators, evidence, problem.env_names, args.risk)
+    rescore(rows, calibrators, evidence, args.risk)
     summary = summarise_band(rows, methods)
     ranges = ", ".join(f"{k} {lo:g}-{hi:g}" for k, lo, hi in cfg.ranges)
     title = (f"The verdict across the edge band: {problem.name}, {ranges}, {100 * cfg.constrained:g} % constrained; "
@@ -462,7 +462,7 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     rows = [r for r in _evaluated_rows(args.evidence) if r.get("method") and r.get("environment")]
     if not rows:
         raise CalibrationError(f"--evidence {' '.join(args.evidence)}: no replayed plans in these folders")
-    calibrate_rows(rows, calibrators, list(rows[0]["environment"]))
+    calibrate_rows(rows, calibrators)
     seen = sum(bool(r.get("calibration_fitted_on_env")) for r in rows)
     if seen:
         raise CalibrationError(f"--evidence: {seen} of its {len(rows)} plans are at environments and limits the "

@@ -328,7 +328,7 @@ def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str 
     return calibrators.get(setting or "") or calibrators.get(family or "")
 
 
-def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], env_names: Iterable[str]) -> None:
+def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator]) -> None:
     """Add `calibrated_success` (and whether the calibration covers the plan) to
     evaluation rows whose setting has a calibrator. What an earlier calibration wrote into a row
     (a chunk planned before this one was fitted) is dropped first: rows say what `calibrators` say."""

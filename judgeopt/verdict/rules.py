@@ -38,7 +38,7 @@ LEGEND = ("judge: the judge's own probability that the plan succeeds; success p:
 
 
 def stood_behind(predicted: float | None, calibrated: float | None, covers: bool,
-                 raise_floor: float = 0.0) -> tuple[float | None, str]:
+                 raise_floor: float) -> tuple[float | None, str]:
     """The probability the tool stands behind, and its source: the calibrated one where a
     calibration fitted on replayed outcomes of this planner setting covers the environment (and
     limits), else the judge's own (never checked against outcomes there; a judge is most

@@ -69,16 +69,16 @@ def test_file_round_trip_and_rows_are_flagged_when_fitted_on(tmp_path):
     loaded = load_calibration(path)
     assert set(loaded) == {"s1"}
     held_out = _rows(5, seed=9) + [{**_rows(1, seed=9)[0], "setting": "other"}]
-    calibrate_rows(held_out, loaded, ["y_obj", "mu"])
+    calibrate_rows(held_out, loaded)
     assert all(0 < r["calibrated_success"] < 1 and not r["calibration_fitted_on_env"] for r in held_out[:5])
     assert "calibrated_success" not in held_out[5]  # another setting gets no calibrated value
     first_other = held_out[5:] + _rows(2, seed=8)
     first_other[0].update(calibrated_success=0.9, calibration_covers=True)  # written by an earlier calibration
-    calibrate_rows(first_other, loaded, ["y_obj", "mu"])  # a row without a calibrator does not end the pass
+    calibrate_rows(first_other, loaded)  # a row without a calibrator does not end the pass
     assert "calibrated_success" not in first_other[0] and "calibration_covers" not in first_other[0]
     assert "calibrated_success" in first_other[1] and "calibrated_success" in first_other[2]
     seen = rows[:3]
-    calibrate_rows(seen, loaded, ["y_obj", "mu"])
+    calibrate_rows(seen, loaded)
     assert all(r["calibration_fitted_on_env"] for r in seen)
     assert env_fingerprint([0.1, 1.0]) != env_fingerprint([0.1, 1.0000001])
 
@@ -168,5 +168,5 @@ def test_a_calibration_over_limits_learns_from_the_limits_and_covers_limits_betw
     # an evaluation row of any limits in the family gets it
     row = {"setting": "another", "family": family, "limits": {**rows[0]["limits"], "f_max": 12.5},
            "environment": {"y_obj": 0.2, "mu": 2.0}, "predicted_success": 0.99}
-    calibrate_rows([row], fitted, ["y_obj", "mu"])
+    calibrate_rows([row], fitted)
     assert row["calibrated_success"] == pytest.approx(low["calibrated_success"])

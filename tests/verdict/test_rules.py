@@ -30,6 +30,16 @@ def test_the_probability_stood_behind_is_the_calibrated_one_where_it_exists():
     assert no_plan.verdict is None and no_plan.to_json()["verdict"] is None
 
 
+
+def test_a_calibration_raises_a_low_judge_p_only_to_the_floor_its_evidence_backs():
+    """A judge p of 0.3 that the calibration maps to 0.9 is lifted to the evidence's floor, no higher
+    (and not at all without one); a calibrated p below the judge's is taken whatever the floor."""
+    lifted = assess(direct_result(0.3, calibrated_success=0.9, calibration_covers=True, raise_floor=0.4))
+    assert (lifted.success_probability, lifted.probability_source, lifted.verdict) == (0.4, "calibrated", "unlikely")
+    assert assess(direct_result(0.3, calibrated_success=0.9, calibration_covers=True)).success_probability == 0.3
+    lowered = assess(direct_result(0.8, calibrated_success=0.6, calibration_covers=True, raise_floor=0.7))
+    assert lowered.success_probability == 0.6
+
 # -- the command line ----------------------------------------------------------------------------------
 def test_solve_reports_a_verdict_and_its_source(capsys):
     rc = main(["solve", "--qdot-max", "0.4", "--method", "direct", "--json", "--no-simulate"])
@@ -146,6 +156,18 @@ def test_the_plan_to_run_is_ranked_by_the_p_stood_behind_calibrated_before_the_j
     rows = [r.to_json() for r in (cmaes, a, b)]  # the same on evaluation rows
     assert recommended(rows)["method"] == "direct"
 
+
+
+def test_a_plan_called_likely_goes_before_an_uncertain_one_of_higher_p():
+    """Each planner's evidence sets its own threshold: the amortised plan is likely at 0.92 (its
+    threshold 0.9), the direct plan uncertain at 0.97 (its threshold 0.99). The stated risk decides."""
+    from judgeopt.verdict.rules import UNCERTAIN, overall_verdict, recommended
+
+    likely = _planned("amortized", 0.6, calibrated_success=0.92, calibration_covers=True, likely_at=0.9)
+    uncertain = _planned("direct", 0.6, calibrated_success=0.97, calibration_covers=True, likely_at=0.99)
+    assert (likely.verdict, uncertain.verdict) == ("likely", UNCERTAIN)
+    assert recommended([uncertain, likely]) is likely and overall_verdict([uncertain, likely]) == "likely"
+    assert recommended([r.to_json() for r in (uncertain, likely)])["method"] == "amortized"
 
 def test_outside_the_judges_data_the_verdict_says_so_unless_a_calibration_checked_it():
     from judgeopt.verdict.rules import OUTSIDE, overall_verdict
@@ -271,7 +293,7 @@ def test_reassessed_rows_take_the_calibrated_p_only_where_it_covers():
         (0.95, "judge", "uncertain"), (0.995, "judge", "likely"), (0.995, "judge", "uncertain")]
     from judgeopt.verdict.rules import stood_behind
 
-    assert stood_behind(None, None, False) == (None, "") and stood_behind(None, 0.7, False) == (None, "")
+    assert stood_behind(None, None, False, 0.0) == (None, "") and stood_behind(None, 0.7, False, 0.0) == (None, "")
 
 
 def test_a_results_json_carries_its_verdict_and_where_its_p_comes_from():
