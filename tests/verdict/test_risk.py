@@ -54,6 +54,10 @@ def test_a_calibrated_lift_of_a_low_judge_p_goes_only_as_far_as_such_lifts_succe
     assert capped(0.3, 0.9, 0.6) == 0.6 and capped(0.3, 0.2, 0.6) == 0.2  # lowering is free
     assert capped(0.7, 0.95, 0.0) == 0.95  # a judge's p at or above 0.5 is not a lift across it
     assert ev.grid[0]["n"] == 200  # the lifted plans, back at their judge's p, are not called likely
+    # a calibrated p over a judge's p already at 0.5 or above is no lift; a judge's p of exactly 0.5 neither
+    others = [_row(0.9, False, calibrated_success=0.95, calibration_covers=True)] * 7
+    others += [_row(0.5, False, calibrated_success=0.9, calibration_covers=True)] * 3
+    assert next(iter(fit_evidence(lifted + others).values())).raised["n"] == 19
 
 
 def test_the_evidence_speaks_inside_its_ranges_only():
@@ -129,6 +133,8 @@ def test_which_rows_count():
     assert next(iter(fit_evidence(base + at_tol).values())).grid[-1]["failures"] == 3
     mixed = [_row(0.999, True, limits={"qdot_max": 0.4, "f_min": 7.5})] + [_row(0.999, True)] * 3
     assert set(next(iter(fit_evidence(mixed).values())).ranges) == {"qdot_max", "y_obj", "mu"}  # those all have
+    second = [_row(0.999, True), _row(0.999, True, limits={"qdot_max": 0.4}), _row(0.999, True)]  # no f_max in one
+    assert set(next(iter(fit_evidence(second).values())).ranges) == {"qdot_max", "y_obj", "mu"}
     two = fit_evidence([_row(0.999, True)] * 3 + [_row(0.999, True, method="amortized", judge_sha256="cd" * 32)])
     assert {k: (e.method, e.judge_sha256, e.plans) for k, e in two.items()} == {
         "direct@abababababababab": ("direct", "ab" * 32, 3), "amortized@cdcdcdcdcdcdcdcd": ("amortized", "cd" * 32, 1)}
