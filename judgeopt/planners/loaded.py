@@ -102,11 +102,10 @@ def without_generator() -> str:
 
 
 def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: str | None = None
-                ) -> tuple[CompiledJudge, dict, dict] | None:
-    """The models of a fast start (judge.compiled), as (judge, its metadata, {generator path: (arrays,
-    metadata)}): the judge as its built library and the generator as numpy arrays, read without
-    torch's Python package where a run has left them (the library's record, the weights' copy), else
-    made with torch, which leaves them. Either way the planners get the same models, so the first run
+                ) -> tuple[CompiledJudge, dict] | None:
+    """The judge of a fast start (judge.compiled), as (judge, its metadata): its built library, read
+    without torch's Python package where a run has left the library's record, else built with torch,
+    which leaves it (the generator as numpy arrays: Planners._generator, by the same rule). Either way the planners get the same models, so the first run
     and the next ones answer alike (the amortised plan's judge p included), and one process answers a
     request the same way before and after another request made it import torch.
     None where the process has not enabled it (judge.compiled.enable_fast_start: solve and the
@@ -120,7 +119,6 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     from judgeopt.judge.backends import DEFAULT_BACKEND, choose_backend
     from judgeopt.judge.compiled import RECALLED, TrajectoryFormat, fast_start_enabled, recall
     from judgeopt.judge.store import load_meta
-    from judgeopt.planners.store import load_generator_arrays
     from judgeopt.threads import wanted_threads
 
     problem = chosen.problem
@@ -135,9 +133,6 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     backend = choose_backend(casadi_backend or DEFAULT_BACKEND, problem.objective == "target", fmt)
     if backend not in RECALLED:
         return None
-    generators = {}
-    if chosen.generator is not None:
-        generators[chosen.generator] = load_generator_arrays(chosen.generator) or _torch_generator(chosen.generator)
     found = None
     try:
         if sha256_file(model_paths(chosen.judge)[0]) == jmeta["weights_sha256"]:  # else load_judge says what is wrong
@@ -145,7 +140,7 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     except OSError:
         pass
     cj = found[0] if found is not None else _build_library(chosen.judge, jmeta, casadi_backend, problem)
-    return None if cj is None else (CompiledJudge(cj, fmt), jmeta, generators)
+    return None if cj is None else (CompiledJudge(cj, fmt), jmeta)
 
 
 def _torch_generator(path: Path) -> tuple[Any, dict]:
@@ -227,16 +222,15 @@ class Planners:
         chosen = choose_models(problem, to_build(methods), judge, generator, models_dir)
         fast = fast_models(chosen, to_build(methods), casadi_backend)
         if fast is not None:
-            jmodel, jmeta, generators = fast
+            jmodel, jmeta = fast
         else:
             from judgeopt.threads import import_torch
 
             import_torch()  # on the threads the command line asked for
-            (jmodel, jmeta), generators = load_judge(chosen.judge), {}
+            jmodel, jmeta = load_judge(chosen.judge)
         check_compatible(jmeta, horizon=problem.steps, dt=problem.dt, channels=problem.channels, env_names=problem.env_names)
         out = cls(problem, jmodel, jmeta, chosen, ModelRequest(judge, generator, models_dir, casadi_backend),
-                  tuple(m for m in planner_names() if m in methods), notes=coverage_notes(problem, jmeta),
-                  generators=generators)
+                  tuple(m for m in planner_names() if m in methods), notes=coverage_notes(problem, jmeta))
         out._load_generator()
         out.built = out._build()
         out._settings()
@@ -279,16 +273,18 @@ class Planners:
             self.notes.append(f"generator {gpath} was trained against another judge")
 
     def _generator(self, gpath: Path) -> tuple[Any, dict]:
-        """(generator, metadata) at `gpath`, loaded once: its numpy arrays where this is a fast start
-        (the judge a CompiledJudge) and the cache has them, else the torch Generator."""
+        """(generator, metadata) at `gpath`, loaded once. In a fast start (the judge a CompiledJudge)
+        always its numpy arrays, from the cache or read with torch (which leaves them there), so a
+        first run and the next plan alike, under the first limits or others; else the torch Generator."""
         from judgeopt.planners.store import load_generator, load_generator_arrays
         from judgeopt.threads import import_torch
 
         if gpath not in self.generators:
-            fast = load_generator_arrays(gpath) if isinstance(self.judge, CompiledJudge) else None
-            if fast is None:
+            if isinstance(self.judge, CompiledJudge):
+                self.generators[gpath] = load_generator_arrays(gpath) or _torch_generator(gpath)
+            else:
                 import_torch()  # on the threads the command line asked for
-            self.generators[gpath] = fast or load_generator(gpath)
+                self.generators[gpath] = load_generator(gpath)
         return self.generators[gpath]
 
     def _build(self, previous: dict[str, Planner] | None = None) -> dict[str, Planner]:
