@@ -90,6 +90,17 @@ def run_chunks(work: Sequence[tuple[Any, Callable, tuple]], save: Callable[[Any,
 
 
 
+def _saved_chunk(path: Path) -> Any:
+    """A chunk an earlier run wrote, or None where there is none or it cannot be read (it is then redone)."""
+    if not path.exists():
+        return None
+    try:
+        return json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        print(f"note: {path} is unreadable (a damaged chunk): redoing it")
+        return None
+
+
 def run_json_chunks(work: Sequence[tuple[Path, Callable, tuple]], *, n_jobs: int = -1, scheduler: str | None = None,
                     progress: bool = True, desc: str = "") -> list[Any]:
     """Each chunk's result: read back from its JSON file where one exists, else `fn(*args)` run in
@@ -97,7 +108,7 @@ def run_json_chunks(work: Sequence[tuple[Path, Callable, tuple]], *, n_jobs: int
     order of `work`."""
     from judgeopt.files import atomic_write
 
-    done = {path: json.loads(path.read_text()) for path, _, _ in work if path.exists()}
+    done = {path: saved for path, saved in ((p, _saved_chunk(p)) for p, _, _ in work) if saved is not None}
     todo = [w for w in work if w[0] not in done]
     done.update(run_chunks(todo, lambda p, r: atomic_write(p, json.dumps(r).encode()), n_jobs=n_jobs,
                            scheduler=scheduler, progress=progress, desc=f"{desc} ({len(done)} chunks already done)"))

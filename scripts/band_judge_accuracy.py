@@ -9,15 +9,15 @@ where the planners' plans land (issue 43, item 1).
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 import numpy as np
+
+from judgeopt.evaluate.stored import read_rows
 
 
 def plans_of(folders: list[str], method: str | None) -> tuple[np.ndarray, list[dict], np.ndarray]:
     """The plans' samples (B, N + 1, channels), their environments and outcomes."""
-    rows = [r for f in folders for p in sorted(Path(f, "partial").glob("*.json")) for r in json.loads(p.read_text())
+    rows = [r for r in read_rows(folders)
             if r.get("channels") and r.get("simulated_success") is not None and (method is None or r["method"] == method)]
     if not rows:
         raise SystemExit(f"{folders}: no replayed plans with their samples (rows from `judgeopt evaluate band`)")

@@ -13,10 +13,10 @@ judge's own p, and the mean and the minimum of the ensemble members' p where the
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 import numpy as np
+
+from judgeopt.evaluate.stored import read_rows
 
 
 def ranked_successes(score: np.ndarray, success: np.ndarray, failures: int = 3) -> list[int]:
@@ -41,7 +41,7 @@ def main() -> None:
     from judgeopt.verdict.calibration import calibrate_rows, load_calibration_file
     from judgeopt.verdict.risk import HOLD_TOL, capped
 
-    rows = [r for f in args.folders for p in sorted(Path(f, "partial").glob("*.json")) for r in json.loads(p.read_text())
+    rows = [r for r in read_rows(args.folders)
             if r.get("method") == args.method and r.get("predicted_success") is not None
             and r.get("simulated_success") is not None and (r.get("max_constraint_violation") or 0.0) <= HOLD_TOL]
     if not rows:

@@ -9,11 +9,10 @@ as the default direct solve, on environments no evaluation seed draws. Usage:
 from __future__ import annotations
 
 import argparse
-import json
-from pathlib import Path
 
 import numpy as np
 
+from judgeopt.evaluate.stored import read_rows
 from judgeopt.verdict.calibration import load_calibration
 
 RANGES = ((0.05, 0.5), (0.5, 1.0), (1.0, 3.0), (3.0, 3.5), (3.5, 4.0))  # Table 5's
@@ -25,7 +24,7 @@ def main() -> None:
     ap.add_argument("--calibration", default="models/calibration_default.json")
     ap.add_argument("--method", default="direct")
     args = ap.parse_args()
-    rows = [r for f in sorted(Path(args.round, "partial").glob("*.json")) for r in json.loads(f.read_text())
+    rows = [r for r in read_rows(args.round)
             if r["method"] == args.method]
     cal = next(c for c in load_calibration(args.calibration).values()
                if c.method == args.method and "judge_demos_tcn" in c.description)

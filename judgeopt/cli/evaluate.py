@@ -375,25 +375,6 @@ def _argv(args: argparse.Namespace) -> list[str]:
     return [args.table, "--n", str(args.n), "--seed", str(args.seed)] + extra
 
 
-def _evaluated_rows(folders: list[str]) -> list[dict]:
-    """Every plan row in `judgeopt evaluate` output folders (FOLDER/partial/*.json)."""
-    from judgeopt.verdict.calibration import CalibrationError
-
-    rows = []
-    for folder in map(Path, folders):
-        files = sorted((folder / "partial").glob("*.json"))
-        if not files:
-            raise CalibrationError(f"{folder}: no evaluated plans (expected {folder}/partial/*.json from "
-                                   "`judgeopt evaluate ... --out FOLDER`)")
-        for f in files:
-            try:
-                rows += json.loads(f.read_text())
-            except json.JSONDecodeError:
-                raise CalibrationError(f"{f}: not valid JSON (a damaged chunk: delete it and rerun the evaluation "
-                                       "to redo it)") from None
-    return rows
-
-
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from judgeopt.verdict.calibration import CalibrationError, load_calibration_file, save_calibration
 
@@ -421,9 +402,10 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
 
 def _fit_calibration(args: argparse.Namespace) -> dict:
     """Fit a calibrator per setting in the folders and print the table of them."""
+    from judgeopt.evaluate.stored import read_rows
     from judgeopt.verdict.calibration import CalibrationError, describe, fit_from_rows
 
-    rows = _evaluated_rows(args.folders)
+    rows = read_rows(args.folders)
     with_setting = [r for r in rows if r.get("setting") and (not args.methods or r.get("method") in args.methods)]
     if not with_setting and args.methods:
         raise CalibrationError(f"{args.folders}: no evaluated plans of {', '.join(args.methods)}")
@@ -456,10 +438,11 @@ def _fit_calibration(args: argparse.Namespace) -> dict:
 def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     """The held-out evidence per planner and judge (judgeopt.verdict.risk), from plans the
     calibration was not fitted on, their p recomputed by that calibration; printed at the default risk."""
+    from judgeopt.evaluate.stored import read_rows
     from judgeopt.verdict.calibration import CalibrationError, calibrate_rows
     from judgeopt.verdict.risk import RISK, fit_evidence
 
-    rows = [r for r in _evaluated_rows(args.evidence) if r.get("method") and r.get("environment")]
+    rows = [r for r in read_rows(args.evidence) if r.get("method") and r.get("environment")]
     if not rows:
         raise CalibrationError(f"--evidence {' '.join(args.evidence)}: no replayed plans in these folders")
     calibrate_rows(rows, calibrators)

@@ -179,13 +179,15 @@ def _ros_bag(p: Path) -> dict[str, Any]:
 
 
 def _evaluation(p: Path) -> dict[str, Any]:
+    from judgeopt.evaluate.stored import StoredRowsError, chunk_files, read_chunk
+
     rows: list[dict] = []
     bad = []
-    for f in sorted((p / "partial").glob("*.json")):
+    for f in chunk_files(p):
         try:
-            rows += json.loads(f.read_text())
-        except (OSError, ValueError) as exc:
-            bad.append(f"{f.name}: {exc}")
+            rows += read_chunk(f)
+        except StoredRowsError as exc:
+            bad.append(str(exc))
     per: dict[str, Counter] = {}
     for r in rows:
         key = r.get("setting_description") or r.get("method", "?")

@@ -31,6 +31,7 @@ from typing import Any, Callable, Iterator
 
 import numpy as np
 
+from judgeopt.evaluate.stored import chunk_files, read_chunk
 from judgeopt.files import atomic_write, refuse_overwrite
 from judgeopt.parallel import run_chunks
 from judgeopt.planners.constraint_ranges import ConstraintRanges
@@ -185,7 +186,7 @@ def _plan_round(problem: Problem, cfg: RefineConfig, k: int, judge: str, generat
     for first in range(0, cfg.n, cfg.chunk):
         path = partial / f"{first:05d}.json"
         if path.exists():
-            done += json.loads(path.read_text())
+            done += read_chunk(path)
         else:
             todo.append((path, first))
     work = [(path, _plan_chunk, (problem, cfg.methods, judge, generator, envs[f:f + cfg.chunk], f,
@@ -284,7 +285,7 @@ def refine(problem: Problem, train_data: str | Path, judge: str | Path, generato
         if summary_path.exists():  # finished earlier: reuse its models and data
             summary = json.loads(summary_path.read_text())
             aggregated.append(load(folder / "outcomes.h5"))
-            rows = [r for f in sorted((folder / "partial").glob("*.json")) for r in json.loads(f.read_text())]
+            rows = [r for f in chunk_files(folder) for r in read_chunk(f)]
             now = {f["method"]: f for f in _round_figures(rows, k)} if rows else {}  # columns added since
             figures += [{**now.get(f["method"], {}), **f} for f in summary["figures"]]
             # a generator given now joins rounds that ran without one (e.g. more rounds, with --methods amortized)
