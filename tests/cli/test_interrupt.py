@@ -110,7 +110,7 @@ def test_ctrl_c_at_any_moment_of_solve_is_one_line_and_130(tmp_path, how, when):
     assert p.poll() is None, p.stderr.read().decode()[-2000:]
     p.send_signal(signal.SIGINT)
     code = p.wait(60)
-    stdout, stderr = p.stdout.read().decode(), p.stderr.read().decode()
+    _, stderr = p.stdout.read().decode(), p.stderr.read().decode()
     p.stdout.close(), p.stderr.close()
     assert code == 130, stderr[-2000:]
     assert "Traceback" not in stderr
