@@ -9,6 +9,10 @@ its level's count is reached. Memory is the server's and its workers' resident s
 
     python benchmarks/bench_serve.py [--levels 1 2 8] [--requests 300 300 400] [--soak 1000]
                                      [--memory-at 500 2000] [--simulate 20] [--receding 10]
+                                     [--per-planner 100 --planners amortized direct cmaes]
+
+--per-planner N: each of --planners alone, N requests at 1 client and N at the last level, each
+row's throughput against that planner's own one client.
 
 Prints one row per level side by side (with the CPU time the server and its workers spent per
 request: what bounds the throughput where the cores are shared), then the memory and the issue's
@@ -145,6 +149,9 @@ def main() -> None:
     ap.add_argument("--workers", type=int, help="default: the server's (one per core)")
     ap.add_argument("--method", default="direct")
     ap.add_argument("--simulate", type=int, default=0, metavar="N", help="also N requests with simulate, one client")
+    ap.add_argument("--per-planner", type=int, default=0, metavar="N",
+                    help="also N requests of each of --planners, at 1 client and at the last level, side by side")
+    ap.add_argument("--planners", nargs="+", default=["amortized", "direct", "cmaes"])
     ap.add_argument("--receding", type=int, default=0, metavar="N",
                     help="also N requests of the receding planner (it re-plans while its plan runs in simulation), one "
                          "client: each re-plan's solve time inside the service against the re-planning period")
@@ -161,6 +168,10 @@ def main() -> None:
         rows = [run.level(c, n, body) for c, n in zip(args.levels, args.requests)]
         if args.soak:
             soak = run.level(args.levels[-1], args.soak, body)
+        per = []
+        for m in args.planners if args.per_planner else ():
+            run.level(1, 3, {**body, "methods": [m]})  # its first request loads it
+            per += [(m, run.level(c, args.per_planner, {**body, "methods": [m]})) for c in dict.fromkeys((1, args.levels[-1]))]
         sim = run.level(1, args.simulate, {**body, "simulate": True}) if args.simulate else None
         receding = (run.level(1, args.receding, {**body, "methods": ["receding"], "simulate": True})
                     if args.receding else None)
@@ -173,13 +184,15 @@ def main() -> None:
           f"server exit code on SIGTERM {code}")
     print(f"{'clients':>7} {'requests':>8} {'failed':>6} {'p50 ms':>8} {'p95 ms':>8} {'p99 ms':>8} {'req/s':>7} "
           f"{'x 1 client':>10} {'planner p50 ms':>14} {'CPU ms/req: server':>18} {'workers':>7}")
-    base = None
-    for r in rows + ([soak] if args.soak else []) + ([sim] if sim else []):
+    # (group, label, level): "x 1 client" is against the group's first row (the method's own, per planner)
+    labelled = ([("levels", "", r) for r in rows] + ([("levels", "soak", soak)] if args.soak else [])
+                + ([("levels", "sim", sim)] if sim else []) + [(f"alone {m}", m, r) for m, r in per])
+    bases: dict[str, float] = {}
+    for group, label, r in labelled:
         lat, rate = r["latencies"], len(r["latencies"]) / r["wall"]
-        base = base or (rate, percentile(lat, 95))
-        label = "sim" if r is sim else "soak" if args.soak and r is soak else ""
+        base = bases.setdefault(group, rate)
         print(f"{r['clients']:>7} {r['n']:>8} {len(r['failures']):>6} {1e3 * percentile(lat, 50):>8.1f} "
-              f"{1e3 * percentile(lat, 95):>8.1f} {1e3 * percentile(lat, 99):>8.1f} {rate:>7.1f} {rate / base[0]:>10.2f} "
+              f"{1e3 * percentile(lat, 95):>8.1f} {1e3 * percentile(lat, 99):>8.1f} {rate:>7.1f} {rate / base:>10.2f} "
               f"{1e3 * statistics.median(r['planner']) if r['planner'] else float('nan'):>14.1f} "
               f"{r['cpu_ms'][0]:>18.1f} {r['cpu_ms'][1]:>7.1f} {label}")
     if receding:

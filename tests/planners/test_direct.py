@@ -218,7 +218,8 @@ def test_warming_up_changes_no_plan(judge, backend):
     for warm in (False, True):
         planner = DirectPlanner(problem, judge, build_casadi_judge(judge, backend))
         if warm:
-            assert planner.warm_up(cold=True) > 0
+            assert planner.warm_up() > 0 and planner.warm_up() == 0.0  # paid once, not per request
+            assert planner.warm_up(cold=True) > 0 and planner.warm_up(cold=True) == planner.warm_up() == 0.0
         r = planner.solve(ENV)
         plans.append((r.plan.as_array(), r.iterations, r.status))
     np.testing.assert_array_equal(plans[0][0], plans[1][0])
