@@ -137,6 +137,7 @@ def run_band(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], n: int
              ensemble: str | None = None, progress: bool = True) -> list[dict]:
     """Every setting's rows, resumable from OUT/partial/ (chunks named by the problem, the band,
     the methods and the models folder: another sweep never reuses them)."""
+    from judgeopt.evaluate.stored import refuse_other_runs
     from judgeopt.parallel import run_json_chunks
 
     cfg.check(problem)
@@ -147,6 +148,7 @@ def run_band(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], n: int
     work = [(Path(out) / "partial" / f"band__{start:05d}_c{min(chunk, n - start)}_s{seed}_p{tag}.json", band_chunk,
              (problem, cfg, methods, start, min(chunk, n - start), seed, models_dir, ensemble))
             for start in range(0, n, chunk)]
+    refuse_other_runs(path for path, _, _ in work)
     done = run_json_chunks(work, n_jobs=n_jobs, scheduler=scheduler, progress=progress, desc="band")
     return sorted((r for rs in done for r in rs), key=lambda r: r["env_index"])
 
@@ -154,21 +156,28 @@ def run_band(problem: Problem, cfg: BandConfig, methods: tuple[str, ...], n: int
 def summarise_band(rows: Sequence[dict], methods: Sequence[str]) -> dict:
     """Per planner (evaluate.report.verdict_stats), and per setting for the plan to run (the
     recommended plan): called likely and failed; where any plan succeeded, called likely and
-    succeeded; where none succeeded, called likely."""
-    from judgeopt.evaluate.report import verdict_stats
-    from judgeopt.verdict.rules import recommended
-    from judgeopt.verdict.risk import upper_bound
-
+    succeeded; where none succeeded, called likely. The same again over the settings that drew a
+    constraint set (`constrained_only`), so constrained plans are checked on their own."""
     settings: dict[int, list[dict]] = {}
     for r in rows:
         if r.get("method") and r.get("simulated_success") is not None:
             settings.setdefault(r["env_index"], []).append(r)
-    tops = [(rs, recommended(rs)) for rs in settings.values()]
+    constrained = [rs for rs in settings.values() if rs[0].get("band_constraints")]
+    return {**_verdicts(list(settings.values()), methods), "settings": len(settings), "constrained": len(constrained),
+            "constrained_only": _verdicts(constrained, methods)}
+
+
+def _verdicts(settings: list[list[dict]], methods: Sequence[str]) -> dict:
+    """summarise_band's figures over these settings' rows."""
+    from judgeopt.evaluate.report import verdict_stats
+    from judgeopt.verdict.rules import recommended
+    from judgeopt.verdict.risk import upper_bound
+
+    tops = [(rs, recommended(rs)) for rs in settings]
     some = [(rs, t) for rs, t in tops if any(r["simulated_success"] for r in rs)]
     likely = [t for _, t in tops if t is not None and t["verdict"] == "likely"]
     failed = sum(not t["simulated_success"] for t in likely)
-    return {"planners": verdict_stats(rows, methods, tuple(np.linspace(0.0, 1.0, 11))), "settings": len(settings),
-            "constrained": sum(bool(rs[0].get("band_constraints")) for rs in settings.values()),
+    return {"planners": verdict_stats([r for rs in settings for r in rs], methods, tuple(np.linspace(0.0, 1.0, 11))),
             "to_run": {"likely": len(likely), "likely_failed": failed,
                        "likely_failed_bound_pct": 100 * upper_bound(failed, len(likely)) if likely else None,
                        "some_succeeded": len(some),
@@ -180,29 +189,38 @@ def summarise_band(rows: Sequence[dict], methods: Sequence[str]) -> dict:
 
 
 def markdown_band(summary: dict, title: str, command: str) -> str:
-    from judgeopt.evaluate.report import cell
-
-    t = summary["to_run"]
     lines = [f"### {title}", "", f"`{command}`", "",
              f"{summary['settings']} settings ({summary['constrained']} with a constraint set).", "",
-             "| planner | plans | succeeded | 'likely' | 'likely' and failed (95 % bound) | 'uncertain' | 'unlikely' "
+             *_verdict_lines(summary)]
+    if summary["constrained"]:
+        lines += ["", f"#### The {summary['constrained']} settings with a constraint set alone", "",
+                  *_verdict_lines(summary["constrained_only"])]
+    lines += ["", "Bounds: one-sided Clopper-Pearson upper bounds on the failure rate among plans called likely."]
+    return "\n".join(lines) + "\n"
+
+
+def _verdict_lines(v: dict) -> list[str]:
+    """The planners' table and the plan to run's sentence of one _verdicts."""
+    from judgeopt.evaluate.report import cell
+
+    t = v["to_run"]
+    lines = ["| planner | plans | succeeded | 'likely' | 'likely' and failed (95 % bound) | 'uncertain' | 'unlikely' "
              "| 'unlikely' and succeeded | breaks a hard limit | outside the judge's data | calibrated p | ECE |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for s in summary["planners"]:
+    for s in v["planners"]:
         lines.append(f"| {s['method']} | {s['plans']} | {s['successes']} ({cell(s['success_pct'], '.0f', ' %')}) "
                      f"| {s['likely']} | {s['likely_failed']} ({cell(s['likely_failed_pct'], '.1f', ' %')}; "
                      f"<= {cell(s['likely_failed_bound_pct'], '.1f', ' %')}) | {s['uncertain']} | {s['unlikely']} "
                      f"| {s['unlikely_succeeded']} | {s['breaks_limits']} | {s['outside_judge_data']} "
                      f"| {s['calibrated']} | {cell(s['ece'], '.3f')} |")
-    lines += ["", f"The plan to run (the recommended one): called likely in {t['likely']} settings, "
-              f"{t['likely_failed']} of them failed (95 % upper bound "
-              f"{cell(t['likely_failed_bound_pct'], '.1f', ' %')}). Where any plan succeeded "
-              f"({t['some_succeeded']} settings), it was called likely and succeeded in {t['likely_and_succeeded']}"
-              f" ({cell(100 * t['likely_and_succeeded'] / t['some_succeeded'] if t['some_succeeded'] else None, '.0f', ' %')})."
-              f" Where none succeeded ({t['none_succeeded']}), it was called likely in "
-              f"{t['likely_where_none_succeeded']}.", "",
-              "Bounds: one-sided Clopper-Pearson upper bounds on the failure rate among plans called likely."]
-    return "\n".join(lines) + "\n"
+    some = t["some_succeeded"]
+    return lines + ["", f"The plan to run (the recommended one): called likely in {t['likely']} settings, "
+                    f"{t['likely_failed']} of them failed (95 % upper bound "
+                    f"{cell(t['likely_failed_bound_pct'], '.1f', ' %')}). Where any plan succeeded "
+                    f"({some} settings), it was called likely and succeeded in {t['likely_and_succeeded']}"
+                    f" ({cell(100 * t['likely_and_succeeded'] / some if some else None, '.0f', ' %')})."
+                    f" Where none succeeded ({t['none_succeeded']}), it was called likely in "
+                    f"{t['likely_where_none_succeeded']}."]
 
 
 def plot_band(summary: dict, title: str) -> "Figure":

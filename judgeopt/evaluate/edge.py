@@ -158,6 +158,7 @@ def run_edge(problem: Problem, cfg: EdgeConfig, methods: tuple[str, ...], n: int
     """Every environment's rows, resumable from OUT/partial/ (chunks named by the problem, the
     configuration and the methods: another sweep never reuses them)."""
     from judgeopt.evaluate.tables import Row, environments
+    from judgeopt.evaluate.stored import refuse_other_runs
     from judgeopt.parallel import run_json_chunks
 
     edge_direction(problem, cfg)  # a bad limit or task fails here, before any work
@@ -166,6 +167,7 @@ def run_edge(problem: Problem, cfg: EdgeConfig, methods: tuple[str, ...], n: int
     tag = hashlib.sha256(blob.encode()).hexdigest()[:8]
     work = [(Path(out) / "partial" / f"edge_{cfg.limit}__{start:05d}_n{n}_s{seed}_p{tag}.json", edge_chunk,
              (problem, cfg, methods, envs[start:start + chunk], start, seed, models_dir)) for start in range(0, n, chunk)]
+    refuse_other_runs(path for path, _, _ in work)
     done = run_json_chunks(work, n_jobs=n_jobs, scheduler=scheduler, progress=progress, desc="edge sweep")
     return sorted((r for rs in done for r in rs), key=lambda r: (r["env_index"], r.get("offset", 0)))
 

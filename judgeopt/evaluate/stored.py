@@ -12,7 +12,7 @@ import json
 from collections.abc import Iterable
 from pathlib import Path
 
-from judgeopt.errors import BadInput
+from judgeopt.errors import BadInput, OutputExists
 
 
 class StoredRowsError(BadInput, ValueError):
@@ -47,3 +47,16 @@ def read_rows(folders: str | Path | Iterable[str | Path]) -> list[dict]:
         for f in files:
             rows += read_chunk(f)
     return rows
+
+
+def refuse_other_runs(paths: Iterable[Path]) -> None:
+    """Stop before a run writes its chunks (`paths`) beside another run's: read back together, the
+    two would count each setting twice. A rerun of the same command resumes; other options (--n,
+    --seed, --chunk, the band, the models) need another --out."""
+    paths = list(paths)
+    ours = set(paths)
+    for folder in dict.fromkeys(p.parent.parent for p in paths):
+        others = [f for f in chunk_files(folder) if f not in ours]
+        if others:
+            raise OutputExists(f"{folder} holds {len(others)} chunks of another run ({others[0].name}): rerun that "
+                               "command to resume it (the same --n, --seed, --chunk and models), or give another --out")

@@ -11,7 +11,7 @@ import pytest
 
 from judgeopt.cli import main
 from judgeopt.errors import ExitCode
-from judgeopt.evaluate.band import BandConfig, default_band, draw_setting, summarise_band
+from judgeopt.evaluate.band import BandConfig, default_band, draw_setting, markdown_band, summarise_band
 from judgeopt.files import resolve
 from judgeopt.planners.problem import ProblemError, load_problem
 from judgeopt.verdict.risk import HOLD_TOL
@@ -72,6 +72,22 @@ def test_the_plan_to_run_is_counted_per_setting():
                            "likely_where_none_succeeded": 1}
     direct = s["planners"][1]
     assert (direct["likely"], direct["likely_failed"], direct["uncertain"], direct["unlikely"]) == (2, 1, 1, 1)
+
+
+def test_the_settings_with_a_constraint_set_are_counted_alone_too():
+    cap = {"band_constraints": {"f_cap": 5.0}}
+    rows = [_row(0, "direct", "likely", True),                                              # unconstrained
+            _row(1, "direct", "likely", False, **cap), _row(1, "amortized", "unlikely", True, **cap),
+            _row(2, "direct", "likely", True, **cap), _row(3, "direct", "unlikely", False, **cap)]
+    s = summarise_band(rows, ("amortized", "direct"))
+    alone = s["constrained_only"]
+    assert (s["constrained"], s["to_run"]["likely"], s["to_run"]["likely_failed"]) == (3, 3, 1)
+    assert alone["to_run"] == {"likely": 2, "likely_failed": 1, "likely_failed_bound_pct": pytest.approx(100 * 0.95 ** 0.5),
+                               "some_succeeded": 2, "likely_and_succeeded": 1, "none_succeeded": 1,
+                               "likely_where_none_succeeded": 0}
+    assert [(d["method"], d["plans"], d["likely"]) for d in alone["planners"]] == [("amortized", 1, 0), ("direct", 3, 2)]
+    page = markdown_band(s, "t", "cmd")
+    assert "#### The 3 settings with a constraint set alone" in page and page.count("| direct | ") == 2
 
 
 def _evidence_calibration(tmp_path, capsys):

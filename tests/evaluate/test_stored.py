@@ -51,3 +51,15 @@ def test_a_resumed_run_redoes_a_damaged_chunk_and_keeps_the_good_ones(tmp_path, 
     assert out == [["kept"], [1], [4]]
     assert json.loads(paths[1].read_text()) == [1]
     assert "1.json is unreadable" in capsys.readouterr().out
+
+
+def test_a_run_refuses_a_folder_holding_another_runs_chunks(tmp_path):
+    from judgeopt.errors import OutputExists
+    from judgeopt.evaluate.stored import refuse_other_runs
+
+    ours = [tmp_path / "partial" / f"band__{k:05d}_c5_s1.json" for k in (0, 5)]
+    _write(tmp_path, ours[0].name, [{"i": 0}])
+    refuse_other_runs(ours)  # its own chunk: a resume
+    _write(tmp_path, "band__00000_c10_s1.json", [{"i": 0}])  # the same settings, chunked otherwise
+    with pytest.raises(OutputExists, match=r"1 chunks of another run \(band__00000_c10_s1.json\).*another --out"):
+        refuse_other_runs(ours)
