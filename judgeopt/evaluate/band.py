@@ -158,26 +158,26 @@ def summarise_band(rows: Sequence[dict], methods: Sequence[str]) -> dict:
     recommended plan): called likely and failed; where any plan succeeded, called likely and
     succeeded; where none succeeded, called likely. The same again over the settings that drew a
     constraint set (`constrained_only`), so constrained plans are checked on their own."""
-    settings: dict[int, list[dict]] = {}
-    for r in rows:
-        if r.get("method") and r.get("simulated_success") is not None:
-            settings.setdefault(r["env_index"], []).append(r)
-    constrained = [rs for rs in settings.values() if rs[0].get("band_constraints")]
-    return {**_verdicts(list(settings.values()), methods), "settings": len(settings), "constrained": len(constrained),
-            "constrained_only": _verdicts(constrained, methods)}
+    every = _verdicts(rows, methods)
+    constrained = _verdicts([r for r in rows if r.get("band_constraints")], methods)
+    return {**every, "constrained": constrained["settings"], "constrained_only": constrained}
 
 
-def _verdicts(settings: list[list[dict]], methods: Sequence[str]) -> dict:
-    """summarise_band's figures over these settings' rows."""
+def _verdicts(rows: Sequence[dict], methods: Sequence[str]) -> dict:
+    """summarise_band's figures over these rows."""
     from judgeopt.evaluate.report import verdict_stats
     from judgeopt.verdict.rules import recommended
     from judgeopt.verdict.risk import upper_bound
 
-    tops = [(rs, recommended(rs)) for rs in settings]
+    settings: dict[int, list[dict]] = {}
+    for r in rows:
+        if r.get("method") and r.get("simulated_success") is not None:
+            settings.setdefault(r["env_index"], []).append(r)
+    tops = [(rs, recommended(rs)) for rs in settings.values()]
     some = [(rs, t) for rs, t in tops if any(r["simulated_success"] for r in rs)]
     likely = [t for _, t in tops if t is not None and t["verdict"] == "likely"]
     failed = sum(not t["simulated_success"] for t in likely)
-    return {"planners": verdict_stats([r for rs in settings for r in rs], methods, tuple(np.linspace(0.0, 1.0, 11))),
+    return {"planners": verdict_stats(rows, methods, tuple(np.linspace(0.0, 1.0, 11))), "settings": len(settings),
             "to_run": {"likely": len(likely), "likely_failed": failed,
                        "likely_failed_bound_pct": 100 * upper_bound(failed, len(likely)) if likely else None,
                        "some_succeeded": len(some),
