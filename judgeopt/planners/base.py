@@ -109,9 +109,13 @@ class Planner(ABC):
             return []
         from judgeopt.planners.joint_limits import joint_map
 
-        joint, quantity, ratio = joint_map(self.problem).binding(result.plan, scale)
+        joints = joint_map(self.problem)
+        joint, quantity, ratio = joints.binding(result.plan, scale)
         where = "over" if ratio > 1.0 + 1e-6 else "the nearest"
-        return [f"{result.method}, joints: {joint}'s {quantity} is {where} its limit x {scale:g}, at {ratio:.0%} of it"]
+        # where it binds: the limit's value at which every joint holds
+        advice = joints.advice(result.plan, scale, float(self.problem.vec("f_min")[0]))
+        return [f"{result.method}, joints: {joint}'s {quantity} is {where} its limit x {scale:g}, at {ratio:.0%} of it"
+                + (f": {advice}" if advice else "")]
 
 
 class ClosedLoopPlanner(Planner):

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from judgeopt.planners.constraints import per_channel
-from judgeopt.planners.problem import InfeasibleProblemError, Problem
+from judgeopt.planners.problem import InfeasibleProblemError, Problem, ProblemError
 
 
 def check(problem: Problem, env: dict[str, float], rest_from: int | None = None) -> None:
@@ -25,6 +25,24 @@ def check(problem: Problem, env: dict[str, float], rest_from: int | None = None)
             which = " and ".join(names) if len(names) > 1 else f"{names[0]} and the start state"
             raise InfeasibleProblemError(f"{which} cannot {'all' if len(names) > 2 else 'both'} hold "
                                          "(on the motion model from the start state); relax one", names)
+    if problem.joint_limit_scale is not None:
+        _check_joints(problem, env)
+
+
+def _check_joints(problem: Problem, env: dict[str, float]) -> None:
+    """The arm's joint torques and speeds (joint_limit_scale) on the positions every plan passes through: an
+    arm too weak or too slow for the limits is infeasible, with the joint and the limit's value at which it
+    holds (joint_limits.JointMap.check_path); an arm that cannot reach [q_min, q_max] likewise. A task the
+    joint limits cannot be held for is left to the planner that holds them to report."""
+    from judgeopt.planners.joint_limits import joint_map
+
+    try:
+        joints = joint_map(problem)
+    except InfeasibleProblemError:
+        raise
+    except ProblemError:
+        return
+    joints.check_path(problem, env, getattr(problem, "robot", None))
 
 
 @dataclass

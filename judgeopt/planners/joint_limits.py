@@ -33,6 +33,8 @@ from judgeopt.trajectory import Plan
 GRID_STEP = 0.0025
 #: the grid reaches this far beyond [q_min, q_max] (m), where the arm reaches there
 GRID_MARGIN = 0.02
+#: positions sampled along a segment (m, at most) where a force or speed that holds every joint is computed
+FINE_STEP = 0.0005
 
 _CACHE: dict[tuple, "JointMap"] = {}
 
@@ -147,6 +149,165 @@ class JointMap:
             return self.names[j], "velocity", float(rv[j])
         j = int(np.argmax(rt))
         return self.names[j], "torque", float(rt[j])
+
+    def along(self, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(positions, rate, gravity, force per unit pressing force), the last three (positions, joints): the
+        tables at every FINE_STEP of [lo, hi], both ends included."""
+        ys = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / FINE_STEP)) + 1))
+        T = np.array(self.table().map(len(ys))(ys.reshape(1, -1)))  # (3 nj, n)
+        nj = self.n_joints
+        return ys, T[:nj].T, T[nj:2 * nj].T, T[2 * nj:].T
+
+    def force_window(self, lo: float, hi: float, scale: float) -> "ForceWindow":
+        """The pressing forces f at which every joint's torque |g + a f| stays within scale x its limit at every
+        position of [lo, hi]: at each position an interval of f (its joints' intervals intersected), of which
+        the largest lower end and the smallest upper end over the positions, each with the joint and position
+        that set it; and the position where no force at all holds, if there is one."""
+        ys, _, grav, per_f = self.along(lo, hi)
+        lim = scale * self.torque_limit
+        with np.errstate(divide="ignore", invalid="ignore"):
+            a = np.where(np.abs(per_f) > 1e-12, per_f, np.nan)
+            ends = np.stack([(-lim - grav) / a, (lim - grav) / a])  # (2, positions, joints)
+            f_lo = np.where(np.isnan(a), np.where(np.abs(grav) <= lim, -np.inf, np.inf), ends.min(axis=0))
+            f_hi = np.where(np.isnan(a), np.where(np.abs(grav) <= lim, np.inf, -np.inf), ends.max(axis=0))
+        lo_y, hi_y = f_lo.max(axis=1), f_hi.min(axis=1)  # per position: the forces every joint holds
+        i_lo, i_hi = int(np.argmax(lo_y)), int(np.argmin(hi_y))
+        empty = np.flatnonzero(lo_y > hi_y)
+        return ForceWindow(low=float(lo_y[i_lo]), low_joint=self.names[int(np.argmax(f_lo[i_lo]))],
+                           low_at=float(ys[i_lo]), high=float(hi_y[i_hi]),
+                           high_joint=self.names[int(np.argmin(f_hi[i_hi]))], high_at=float(ys[i_hi]),
+                           nowhere=float(ys[empty[0]]) if len(empty) else None)
+
+    def torque_at(self, joint: str, position: float, f: float) -> float:
+        """Joint `joint`'s torque (N m, from the tables) at `position`, pressing with `f`."""
+        _, _, grav, per_f = self.along(position, position)
+        j = self.names.index(joint)
+        return float(grav[0, j] + per_f[0, j] * f)
+
+    def speed_cap(self, lo: float, hi: float, scale: float) -> tuple[float, str, float]:
+        """(speed, joint, position): the fastest the tool may move along the axis at every position of [lo, hi]
+        with every joint's velocity within scale x its limit, and the joint and position that set it."""
+        ys, rate, _, _ = self.along(lo, hi)
+        with np.errstate(divide="ignore"):
+            cap = scale * self.velocity_limit / np.abs(rate)  # (positions, joints)
+        i, j = np.unravel_index(int(np.argmin(cap)), cap.shape)
+        return float(cap[i, j]), self.names[j], float(ys[i])
+
+    def check_path(self, problem: Any, env: dict[str, float], robot: str | None = None) -> None:
+        """Raise InfeasibleProblemError where no plan can hold the joints' torques (or speeds) on the positions
+        every plan passes through, from the start q0 to the terminal position: the joint, what it needs of its
+        limit, and the value of a limit at which they hold (computed from the tables, not searched)."""
+        scale = problem.joint_limit_scale
+        q0, end = float(problem.vec("q0")[0]), float(problem.terminal_positions(env)[0])
+        lo, hi = (q0, q0) if np.isnan(end) else (min(q0, end), max(q0, end))
+        f_min, f_max = float(problem.vec("f_min")[0]), float(problem.vec("f_max")[0])
+        who = f"robot {robot!r}" if robot else "the arm"
+        limits = ", ".join(f"{j} {scale * t:.3g}" for j, t in zip(self.names, self.torque_limit))
+        w = self.force_window(lo, hi, scale)
+        path = f"on the path from q0 = {q0:g} to {end:g} m" if hi > lo else f"at q0 = {q0:g} m"
+        if w.nowhere is not None:
+            name, need, limit = self._worst(w.nowhere, max(f_min, 0.0), scale)
+            raise InfeasibleProblemError(
+                f"{who} cannot hold its joints' torques at y = {w.nowhere:.3g} m {path} whatever the pressing force: "
+                f"{name} needs {abs(need):.3g} N m of its {limit:.3g} N m at f = {max(f_min, 0.0):g} N; a stronger "
+                f"arm (its limits x {scale:g}: {limits} N m), a lighter tool, or an end it reaches otherwise",
+                ["limits.f_min/f_max", "joint_limit_scale"])
+        if w.high < f_min:
+            need, limit = self.torque_at(w.high_joint, w.high_at, f_min), scale * self._limit(w.high_joint)
+            at_max = self.torque_at(w.high_joint, w.high_at, f_max)
+            value = _rounded(w.high, -1)
+            raise InfeasibleProblemError(
+                f"{who} is too weak for f_min = {f_min:g} N: {w.high_joint} needs {abs(need):.3g} N m of its "
+                f"{limit:.3g} N m at y = {w.high_at:.3g} m {path} (at f_max = {f_max:g} N: {abs(at_max):.3g} N m); "
+                f"every joint holds its torque there with f_min <= {value:g} N (--f-min {value:g}), or with a "
+                "stronger arm", ["limits.f_min/f_max", "joint_limit_scale"])
+        if w.low > f_max:
+            value = _rounded(w.low, +1)
+            raise InfeasibleProblemError(
+                f"{who} holds {w.low_joint}'s torque at y = {w.low_at:.3g} m {path} only pressing with at least "
+                f"{w.low:.3g} N, above f_max = {f_max:g} N: --f-max {value:g}, or a stronger arm",
+                ["limits.f_min/f_max", "joint_limit_scale"])
+        if hi > lo:
+            self._check_time(problem, lo, hi, end > q0, scale, who, path)
+
+    def _check_time(self, problem: Any, lo: float, hi: float, forward: bool, scale: float, who: str, path: str) -> None:
+        """The joints' speed limits cap the tool's speed at each position: a path that takes longer than the
+        horizon at that speed (or the velocity box, where lower) admits no plan."""
+        ys, rate, _, _ = self.along(lo, hi)
+        box = float(problem.vec("qdot_max")[0] if forward else -problem.vec("qdot_min")[0])
+        if box <= 0:
+            return  # the boxes' own conflict: Problem.check_feasible reports it
+        with np.errstate(divide="ignore"):
+            cap = scale * self.velocity_limit / np.abs(rate)
+        speed = np.minimum(cap.min(axis=1), box)
+        mid = 0.5 * (1.0 / speed[1:] + 1.0 / speed[:-1])
+        least = float(np.sum(mid * np.diff(ys)))  # the trapezoid rule on dt/dy
+        horizon = problem.steps * problem.dt
+        if least > horizon:
+            i, j = np.unravel_index(int(np.argmin(cap)), cap.shape)
+            raise InfeasibleProblemError(
+                f"{who} is too slow {path}: {self.names[j]}'s {scale * self.velocity_limit[j]:.3g} rad/s caps the "
+                f"tool at {cap[i, j]:.3g} m/s at y = {ys[i]:.3g} m, so the path takes at least {least:.3g} s of the "
+                f"{horizon:g} s horizon: a nearer end, or a faster arm",
+                ["limits.qdot_min/qdot_max", "joint_limit_scale"])
+
+    def _limit(self, joint: str) -> float:
+        return float(self.torque_limit[self.names.index(joint)])
+
+    def _worst(self, position: float, f: float, scale: float) -> tuple[str, float, float]:
+        """(joint, torque, scaled limit) of the joint furthest over its limit at `position`, pressing `f`."""
+        _, _, grav, per_f = self.along(position, position)
+        tau = grav[0] + per_f[0] * f
+        j = int(np.argmax(np.abs(tau) / self.torque_limit))
+        return self.names[j], float(tau[j]), float(scale * self.torque_limit[j])
+
+    def advice(self, plan: Plan, scale: float, f_min: float | None = None) -> str:
+        """For a plan whose binding joint (`binding`) is at or over its limit: the limit's value at which every
+        joint holds on the positions this plan passes through (computed from the tables), as a phrase; empty
+        where no joint binds. `f_min`: the problem's, named too where it is above that value."""
+        joint, quantity, ratio = self.binding(plan, scale)
+        if ratio < 1.0 - 1e-3:
+            return ""
+        pos = plan.values[:, _column(plan, "position")]
+        lo, hi = float(pos.min()), float(pos.max())
+        if quantity == "velocity":
+            cap, name, at = self.speed_cap(lo, hi, scale)
+            return (f"every joint's speed holds on this plan's positions with qdot_max <= {_rounded(cap, -1):g} m/s "
+                    f"({name} at y = {at:.3g} m)")
+        w = self.force_window(lo, hi, scale)
+        if w.nowhere is not None or w.high < 0:
+            return f"no pressing force holds {joint}'s torque on this plan's positions (at y = {w.high_at:.3g} m)"
+        f_max = float(plan.values[:, _column(plan, "force")].max())
+        need = self.torque_at(w.high_joint, w.high_at, f_max)
+        cap = _rounded(w.high, -1)
+        also = f" and f_min < {cap:g} N" if f_min is not None and f_min >= cap else ""
+        limit = scale * self._limit(w.high_joint)
+        return (f"{w.high_joint} caps the pressing force at {w.high:.3g} N at y = {w.high_at:.3g} m (pressing the "
+                f"plan's {f_max:.3g} N there, it would need {abs(need):.3g} N m of its {limit:.3g}); "
+                f"every joint's torque holds on these positions with f_max <= {cap:g} N{also}")
+
+
+@dataclass(frozen=True)
+class ForceWindow:
+    """JointMap.force_window: pressing forces in [low, high] hold every joint's torque at every position of a
+    segment; each end with the joint and position that set it; `nowhere`: a position where no force does."""
+
+    low: float
+    low_joint: str
+    low_at: float
+    high: float
+    high_joint: str
+    high_at: float
+    nowhere: float | None = None
+
+
+def _rounded(value: float, direction: int, digits: int = 3) -> float:
+    """`value` to `digits` significant digits, rounded towards where the limit holds (down: -1, up: +1)."""
+    if value == 0 or not np.isfinite(value):
+        return value
+    step = 10.0 ** (np.floor(np.log10(abs(value))) - digits + 1)
+    units = round(value / step, 6)
+    return float(f"{(np.ceil(units) if direction > 0 else np.floor(units)) * step:.{digits}g}")
 
 
 def _column(plan: Plan, kind: str) -> int:

@@ -22,6 +22,7 @@ BUILTIN = {
     "panda": "judgeopt.robots.arms.panda:ARM",
     "kinova": "judgeopt.robots.arms.kinova:ARM",
     "xarm7": "judgeopt.robots.arms.xarm7:ARM",
+    "so100": "judgeopt.robots.arms.so100:ARM",
 }
 DEFAULT_ROBOT = "ur5"
 

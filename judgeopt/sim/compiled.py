@@ -86,7 +86,8 @@ def step_functions(model_data: dict) -> tuple[cs.Function, cs.Function]:
             lam_inv_z = cs.mtimes(J, _cholesky_solve(chain.mass_matrix(model_data, kin), J[2, :].T))
             xdd = cs.vertcat(xdd[:2], xdd[2] + (1.0 - S[2]) * g["kf"][2] * (f_new[2] - fz), xdd[3:])
             xdd = xdd - lam_inv_z * fz
-        qdd = cs.solve(J, xdd) if nv == 6 else _redundant(J, xdd, g, v, chain.mass_matrix(model_data, kin))
+        qdd = (cs.solve(J, xdd) if nv == 6 else cs.solve(cs.mtimes(J.T, J), cs.mtimes(J.T, xdd)) if nv < 6
+               else _redundant(J, xdd, g, v, chain.mass_matrix(model_data, kin)))
         tau = chain.rnea(model_data, kin, v, qdd)
         tau = cs.fmin(cs.fmax(tau, -g["tau_max"]), g["tau_max"])
         name = "step_force" if force_terms else "step_free"

@@ -135,14 +135,18 @@ class HybridController:
         xdd = S * (self.kp * err + self.kv * (cmd.velocity - self.velocity))
         if S[2] < 1.0:
             self._add_force_terms(xdd, q, J, S, cmd.force_z)
-        # tau = M J^-1 xdd + h(q, qd) (J# xdd on more than 6 joints), computed as inverse dynamics (RNEA)
-        qdd = _dgesv()(J, xdd)[2] if J.shape[1] == 6 else self._redundant(J, xdd, q, v)
+        # tau = M J^-1 xdd + h(q, qd) (J# xdd on more than 6 joints, the least-squares J+ xdd on fewer), computed
+        # as inverse dynamics (RNEA)
+        n = J.shape[1]
+        qdd = _dgesv()(J, xdd)[2] if n == 6 else self._redundant(J, xdd, q, v) if n > 6 else _solve(J.T @ J, J.T @ xdd)
         tau = _rnea(model, data, q, v, qdd)
         return _minimum(_maximum(tau, self._tau_min), self.tau_max)
 
     def _redundant(self, J: np.ndarray, xdd: np.ndarray, q: np.ndarray, v: np.ndarray) -> np.ndarray:
         """Joint accelerations of an arm with more than 6 joints: J# xdd plus the null space's posture
-        regulation, which moves no tool coordinate.
+        regulation, which moves no tool coordinate. (An arm with fewer, the SO-100's 5, cannot turn its tool
+        about one axis at all: its joints take the least-squares (J^T J)^-1 J^T xdd, which drops the part
+        of xdd it cannot make; on the scoop's level tool and a vertical wrist that part's error stays zero.)
 
         J# = M^-1 J^T Lambda is the dynamically consistent inverse (Khatib): the torque M J# xdd is
         J^T Lambda xdd, and no wrench at the tool (the plate's reaction, the force feed-forward)
