@@ -192,7 +192,7 @@ def markdown_band(summary: dict, title: str, command: str) -> str:
     lines = [f"### {title}", "", f"`{command}`", "",
              f"{summary['settings']} settings ({summary['constrained']} with a constraint set).", "",
              *_verdict_lines(summary)]
-    if summary["constrained"]:
+    if 0 < summary["constrained"] < summary["settings"]:  # a share constrained: those alone too
         lines += ["", f"#### The {summary['constrained']} settings with a constraint set alone", "",
                   *_verdict_lines(summary["constrained_only"])]
     lines += ["", "Bounds: one-sided Clopper-Pearson upper bounds on the failure rate among plans called likely."]
