@@ -23,6 +23,7 @@ TABLE: dict[str, ExitCode] = {
     "judgeopt.planners.problem.ProblemFileError": ExitCode.BAD_INPUT,
     "judgeopt.planners.store.GeneratorFileError": ExitCode.BAD_INPUT,
     "judgeopt.verdict.calibration.CalibrationError": ExitCode.BAD_INPUT,
+    "judgeopt.evaluate.stored.StoredRowsError": ExitCode.BAD_INPUT,
     "judgeopt.planners.trust_region.TrustRegionError": ExitCode.BAD_INPUT,
     "judgeopt.data.dataset.DatasetError": ExitCode.BAD_INPUT,
     "judgeopt.data.recording.ImportError_": ExitCode.BAD_INPUT,
