@@ -30,6 +30,18 @@ def test_outcomes_unrelated_to_the_judge_and_the_input_give_the_rate_and_nothing
     assert w == pytest.approx([np.log(4.0), 0.0, 0.0, 0.0], abs=1e-6)
 
 
+@pytest.mark.parametrize("l2", [0.03, 1.0])
+def test_the_map_is_solved_to_its_optimum_among_many_inputs(l2):
+    """Ten cells of 5 plans, 4 successes in each, the judge's logit -1 or 1 and eight inputs each
+    constant within a cell: the gradient vanishes at the bias log 4 and every other weight 0, so
+    that is the optimum, and the fit reaches it to 1e-5 (scipy's default tolerances stop 1e-4 away)."""
+    cols = np.random.default_rng(4).uniform(0, 1, (10, 8))
+    z = np.where(np.arange(10) % 2, 1.0, -1.0)
+    X = np.repeat(np.column_stack([np.ones(10), z, cols]), 5, axis=0)
+    w = _fit_monotone(X, np.tile([1.0, 1.0, 1.0, 1.0, 0.0], 10), l2, 4)
+    assert w == pytest.approx(np.r_[np.log(4.0), np.zeros(9)], abs=1e-5)
+
+
 @pytest.mark.parametrize("l2", [0.5, 3.0, 30.0])
 def test_separable_outcomes_give_the_slope_where_the_penalty_balances_the_loss(l2):
     """10 failures at z = -1 and 10 successes at z = 1: by symmetry the bias is 0, and the slope s
@@ -63,6 +75,10 @@ def test_isotonic_regression_on_the_judge_alone_held_out():
     y = np.array([0, 0, 0, 0, 0, 0, 1, 1, 1, 1], float)
     want = (5 * -np.log(0.999) - np.log(0.001) + 4 * -np.log(0.75)) / 10
     assert _alternatives(_xz(Z), Z, y, FOLDS, 4.0)["isotonic_judge_only"] == round(want, 5)
+    # the success at z = 2 (fold 4) lies beyond its training fold's z (at most 1): predicted as the
+    # largest, 1 (held at 0.999), as every other plan is predicted right
+    z = np.array([-1, -1, -1, -1, -1, 1, 1, 1, 1, 2], float)
+    assert _alternatives(_xz(z), z, (z > 0).astype(float), FOLDS, 4.0)["isotonic_judge_only"] == 0.001
 
 
 def test_a_training_fold_of_one_outcome_predicts_its_rate():
@@ -152,7 +168,7 @@ def test_fit_from_rows_takes_settings_of_50_replayed_outcomes_with_their_judge_a
     s1 = _rows("s1", 25)
     damaged = [{**s1[0], "predicted_success": None}, {**s1[0], "simulated_success": None},
                {k: v for k, v in s1[0].items() if k != "setting"}]
-    rows = s1 + damaged + _rows("s2", 25, method="cem", judges=("a" * 64, "b" * 64)) + _rows("s3", 25)[:49]
+    rows = _rows("s3", 25)[:49] + s1 + damaged + _rows("s2", 25, method="cem", judges=("a" * 64, "b" * 64))
     cals = fit_from_rows(rows, {"s1": "direct, judge j; q̇_max 0.5, f in [7.5, 15]"}, ["y_obj", "mu"],
                          sources=["ev/b", "ev/a"])
     assert set(cals) == {"s1", "s2"}  # 50 outcomes are enough, 49 too few; the damaged rows are not counted

@@ -60,9 +60,9 @@ def test_a_calibration_whose_inputs_never_varied_maps_the_judges_logit_alone():
 
 
 def test_the_kth_distance_is_exact_for_more_queries_than_one_chunk():
-    """Points at 0, 1, ..., 39 on a line (shuffled), queries at -0.1 j: the k-th nearest is at 0.1 j + k - 1."""
-    x = np.random.default_rng(4).permutation(40).astype(float)
-    points = np.column_stack([x, np.zeros(40)])
+    """Points at 0, 1, ..., 299 on a line (shuffled), queries at -0.1 j: the k-th nearest is at 0.1 j + k - 1."""
+    x = np.random.default_rng(4).permutation(300).astype(float)
+    points = np.column_stack([x, np.zeros(300)])
     j = np.arange(600)
     query = np.column_stack([-0.1 * j, np.zeros(600)])
     for k in (1, 2, 5, 9):
@@ -128,5 +128,5 @@ def test_a_file_of_another_kind_or_with_a_damaged_threshold_table_is_refused(tmp
     for grid in ([], [{"threshold": 0.5, "n": 10, "failures": 0}]):
         doc["evidence"]["direct"]["grid"] = grid
         path.write_text(json.dumps(doc))
-        with pytest.raises(CalibrationError, match="malformed evidence"):
+        with pytest.raises(CalibrationError, match="malformed evidence .evidence direct has no threshold table."):
             load_calibration_file(path)
