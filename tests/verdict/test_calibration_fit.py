@@ -183,9 +183,9 @@ def test_fit_from_rows_takes_settings_of_50_replayed_outcomes_with_their_judge_a
 
 def test_fit_from_rows_over_limits_has_the_limits_as_inputs_and_the_settings_as_groups():
     """25 settings of one family, f_max evenly over [11, 20], two plans each, all in one environment."""
-    rows = [r for i, f in enumerate(np.linspace(11.0, 20.0, 25))
-            for r in _rows(f"s{i}", 1, f_max=f, family="fam")]
-    descriptions = {f"s{i}": f"direct, judge j; q̇_max 0.5, f in [7.5, {f:g}]" for i, f in enumerate(np.linspace(11, 20, 25))}
+    f_max = np.linspace(11.0, 20.0, 25)
+    rows = [r for i, f in enumerate(f_max) for r in _rows(f"s{i}", 1, f_max=f, family="fam")]
+    descriptions = {f"s{i}": f"direct, judge j; q̇_max 0.5, f in [7.5, {f:g}]" for i, f in enumerate(f_max)}
     (cal,) = fit_from_rows(rows, descriptions, ["y_obj", "mu"], over_limits=True).values()
     assert (cal.setting, cal.env_names) == ("fam", ["y_obj", "mu", "qdot_max", "f_max"])
     assert cal.description == "direct, judge j, over limits"

@@ -46,7 +46,8 @@ def test_the_bumps_are_gaussians_one_spacing_wide_at_evenly_spaced_centres():
     assert cal.basis([[3.0, 5.0], [2.5, 5.0]]) == pytest.approx(
         np.array([[e(-0.5), 1.0, e(-0.5)], [e(-0.125), e(-0.125), e(-1.125)]]), rel=1e-12)
     # two bumps: centres at the ends, the range wide
-    assert _calibrator([2.0, 5.0], [4.0, 5.0], bumps=2).basis([[3.0, 5.0]]) == pytest.approx(np.array([[e(-0.125)] * 2]))
+    two = _calibrator([2.0, 5.0], [4.0, 5.0], bumps=2)
+    assert two.basis([[3.0, 5.0]]) == pytest.approx(np.array([[e(-0.125)] * 2]))
     # the features: 1, the judge's logit over its clip, the bumps, and the bumps times that logit
     z = np.log(9.0) / 12
     b = [e(-0.5), 1.0, e(-0.5)]
