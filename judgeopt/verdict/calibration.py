@@ -41,6 +41,8 @@ NEIGHBOURS = 5
 COVER_QUANTILE = 0.95
 #: at most this many fitted points are kept in the file to judge coverage by (seeded subsample)
 MAX_POINTS = 3000
+#: the folds of the cross-validation that chooses the penalty and measures the maps
+FOLDS = 5
 
 
 class CalibrationError(BadInput, ValueError):
@@ -155,14 +157,14 @@ def kth_distance(query: np.ndarray, points: np.ndarray, k: int = NEIGHBOURS, chu
     return out
 
 
-def _kth_distance_to_others(points: np.ndarray, groups: np.ndarray, k: int = NEIGHBOURS) -> np.ndarray:
-    """Each point's distance to its k-th nearest point of *another* group (another planner
+def _kth_distance_to_others(points: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Each point's distance to its NEIGHBOURS-th nearest point of *another* group (another planner
     setting: plans made under the same limits crowd together, and a new request is as far from
     them as one fitted setting is from the others)."""
     out = np.empty(len(points))
     for g in np.unique(groups):
         mine, others = groups == g, points[groups != g]
-        out[mine] = kth_distance(points[mine], others, k) if len(others) else np.inf
+        out[mine] = kth_distance(points[mine], others) if len(others) else np.inf
     return out
 
 
@@ -200,7 +202,7 @@ def _alternatives(X: np.ndarray, z: np.ndarray, y: np.ndarray, folds: np.ndarray
     out = {}
     for name in ("logistic_unconstrained", "isotonic_judge_only"):
         p = np.empty(len(y))
-        for k in range(5):
+        for k in range(FOLDS):
             tr, te = folds != k, folds == k
             if len(np.unique(y[tr])) < 2:
                 p[te] = y[tr].mean()
@@ -229,15 +231,15 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
                      fitted_on=sorted({env_fingerprint(e) for e in envs}), sources=sorted(set(sources or [])))
     X = cal.features(envs, predicted)
     n_basis = (X.shape[1] - 2) // 2
-    folds = np.random.default_rng(seed).permutation(len(y)) % 5
+    folds = np.random.default_rng(seed).permutation(len(y)) % FOLDS
     scores = {}
     for l2 in L2_GRID:
         p = np.empty(len(y))
-        for k in range(5):
+        for k in range(FOLDS):
             p[folds == k] = _sigmoid(X[folds == k] @ _fit_monotone(X[folds != k], y[folds != k], l2, n_basis))
         scores[l2] = _log_loss(p, y)
     base = np.empty(len(y))
-    for k in range(5):
+    for k in range(FOLDS):
         base[folds == k] = np.clip(y[folds != k].mean(), 1e-3, 1 - 1e-3)
     cal.l2 = min(scores, key=scores.get)
     cal.cv_log_loss, cal.base_log_loss = scores[cal.l2], _log_loss(base, y)
@@ -248,7 +250,7 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
         cal.weights = [float(np.log(r / (1 - r)))] + [0.0] * (X.shape[1] - 1)
         cal.constant = True
     pts = cal._scaled(envs, predicted)
-    groups = np.asarray(groups if groups is not None else np.arange(len(pts)).astype(str))
+    groups = np.asarray(groups) if groups is not None else np.arange(len(pts))
     cal.cover_radius = float(np.quantile(_kth_distance_to_others(pts, groups), COVER_QUANTILE))
     if len(pts) > MAX_POINTS:
         pts = pts[np.sort(np.random.default_rng(seed).choice(len(pts), MAX_POINTS, replace=False))]
@@ -369,13 +371,14 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
     for setting, rs in by.items():
         if len(rs) < min_n:
             continue
-        names = list(env_names) + ([k for k in inputs(rs[0].get("limits", {}), {})] if over_limits else [])
+        first = rs[0]  # a family's rows share their method and their limits' names
+        names = list(env_names) + ([k for k in inputs(first.get("limits", {}), {})] if over_limits else [])
         values = np.array([[inputs(r.get("limits", {}), r["environment"])[k] for k in names] for r in rs])
-        description = descriptions.get(rs[0]["setting"], rs[0]["method"])
+        description = descriptions.get(first["setting"], first["method"])
         if over_limits:  # the family's description: without the first row's limits
             description = re.sub(r"[,;] q̇_max [^,]*, f in \[[^\]]*\]", "", description) + ", over limits"
         judges = {r.get("judge_sha256") for r in rs}
-        out[setting] = fit(setting, rs[0]["method"], description, names,
+        out[setting] = fit(setting, first["method"], description, names,
                            values, np.array([r["predicted_success"] for r in rs]),
                            np.array([float(r["simulated_success"]) for r in rs]), sources=sources,
                            judge_sha256=judges.pop() if len(judges) == 1 else None,
