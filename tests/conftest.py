@@ -6,6 +6,18 @@ import pytest
 os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 
+@pytest.fixture(scope="session", autouse=True)
+def _fresh_joint_maps():
+    """Each session tabulates its arms' joint maps itself (judgeopt.planners.joint_limits caches them per
+    process): a session started in a process that ran one before (mutmut's forked runs) tests the code as it
+    is now, not maps an earlier session left behind."""
+    import sys
+
+    module = sys.modules.get("judgeopt.planners.joint_limits")
+    if module is not None:
+        module._CACHE.clear()
+
+
 @pytest.fixture(scope="session")
 def sim():
     """One simulator for the whole session: building the scene costs a fraction of a second,

@@ -134,15 +134,15 @@ class JointMap:
         qd, tau = self.exact(plan, between=True)
         over_v = np.abs(qd) - scale * self.velocity_limit
         over_t = np.abs(tau) - scale * self.torque_limit
-        return {"joint_velocity": max(0.0, float(over_v.max(initial=-np.inf))),
-                "joint_torque": max(0.0, float(over_t.max(initial=-np.inf)))}
+        return {"joint_velocity": max(0.0, float(over_v.max())),
+                "joint_torque": max(0.0, float(over_t.max()))}
 
     def binding(self, plan: Plan, scale: float) -> tuple[str, str, float]:
         """(joint, "velocity" or "torque", |value| / (scale * limit)) of the joint nearest to (or
         furthest over) its scaled limit: what a suggestion names; at the samples and halfway between them,
         where `residuals` checks them (a joint over its limit only between samples is named as over it)."""
         qd, tau = self.exact(plan, between=True)
-        rv = (np.abs(qd) / (scale * self.velocity_limit)).max(axis=0, initial=0.0)
+        rv = (np.abs(qd) / (scale * self.velocity_limit)).max(axis=0)
         rt = (np.abs(tau) / (scale * self.torque_limit)).max(axis=0)
         if rv.max() > rt.max():
             j = int(np.argmax(rv))
@@ -165,11 +165,10 @@ class JointMap:
         that set it; and the position where no force at all holds, if there is one."""
         ys, _, grav, per_f = self.along(lo, hi)
         lim = scale * self.torque_limit
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a = np.where(np.abs(per_f) > 1e-12, per_f, np.nan)
-            ends = np.stack([(-lim - grav) / a, (lim - grav) / a])  # (2, positions, joints)
-            f_lo = np.where(np.isnan(a), np.where(np.abs(grav) <= lim, -np.inf, np.inf), ends.min(axis=0))
-            f_hi = np.where(np.isnan(a), np.where(np.abs(grav) <= lim, np.inf, -np.inf), ends.max(axis=0))
+        a = np.where(np.abs(per_f) > 1e-12, per_f, np.nan)  # NaN (no warning) where the force makes no torque
+        ends = np.stack([(-lim - grav) / a, (lim - grav) / a])  # (2, positions, joints)
+        f_lo = np.where(np.isnan(a), np.where(np.abs(grav) <= lim, -np.inf, np.inf), ends.min(axis=0))
+        f_hi = np.where(np.isnan(a), np.where(np.abs(grav) <= lim, np.inf, -np.inf), ends.max(axis=0))
         lo_y, hi_y = f_lo.max(axis=1), f_hi.min(axis=1)  # per position: the forces every joint holds
         i_lo, i_hi = int(np.argmax(lo_y)), int(np.argmin(hi_y))
         empty = np.flatnonzero(lo_y > hi_y)
