@@ -492,6 +492,8 @@ class DirectPlanner(Planner):
             x0 = np.append(x, min(ubx[-1], max(0.0, working - reached)))
         sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
         runs.append(self.solver.stats())
+        if runs[-1].get("return_status") == "User_Requested_Stop":  # CasADi turned a Ctrl-C into a stop
+            raise KeyboardInterrupt
         return np.asarray(sol["x"]).ravel()[:self._n_plan]
 
     def _pack(self, plan: Plan) -> np.ndarray:
