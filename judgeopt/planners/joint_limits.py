@@ -260,6 +260,15 @@ class JointMap:
         j = int(np.argmax(np.abs(tau) / self.torque_limit))
         return self.names[j], float(tau[j]), float(scale * self.torque_limit[j])
 
+    def _backward(self, plan: Plan, joint: str) -> bool:
+        """Whether `joint` runs fastest while the tool moves back (towards lower y): the limit to name is then
+        qdot_min, not qdot_max (from the tables: the joint's rate at each sample times the tool's velocity)."""
+        pos = plan.values[:, _column(plan, "position")]
+        vel = plan.values[:, _column(plan, "velocity")]
+        ys, rate, _, _ = self.along(float(pos.min()), float(pos.max()))
+        speed = np.abs(np.interp(pos, ys, rate[:, self.names.index(joint)]) * vel)
+        return bool(vel[int(np.argmax(speed))] < 0)
+
     def advice(self, plan: Plan, scale: float, f_min: float | None = None) -> str:
         """For a plan whose binding joint (`binding`) is at or over its limit: the limit's value at which every
         joint holds on the positions this plan passes through (computed from the tables), as a phrase; empty
@@ -271,8 +280,9 @@ class JointMap:
         lo, hi = float(pos.min()), float(pos.max())
         if quantity == "velocity":
             cap, name, at = self.speed_cap(lo, hi, scale)
-            return (f"every joint's speed holds on this plan's positions with qdot_max <= {_rounded(cap, -1):g} m/s "
-                    f"({name} at y = {at:.3g} m)")
+            bound = (f"qdot_min >= {-_rounded(cap, -1):g}" if self._backward(plan, joint)
+                     else f"qdot_max <= {_rounded(cap, -1):g}")
+            return f"every joint's speed holds on this plan's positions with {bound} m/s ({name} at y = {at:.3g} m)"
         w = self.force_window(lo, hi, scale)
         if w.nowhere is not None or w.high < 0:
             return f"no pressing force holds {joint}'s torque on this plan's positions (at y = {w.high_at:.3g} m)"

@@ -399,6 +399,13 @@ def test_advice_names_the_limit_at_which_the_plan_s_positions_hold(monkeypatch) 
     monkeypatch.setattr(toy, "binding", lambda plan, scale: ("pan", "velocity", 0.9995))
     assert toy.advice(plan, 1.0) == "every joint's speed holds on this plan's positions with qdot_max <= 0.666 m/s " \
                                     "(pan at y = 0.5 m)"
+    # moving back, the same joint at the same cap is held by qdot_min (the pan's rate 1 + y: fastest at the
+    # sample where |(1 + y) v| peaks, here the backward one at y = 0.5; forward at y = 0 is slower)
+    back = scoop_plan(0.05, np.linspace(0.0, 0.5, 11), np.r_[0.3, np.zeros(9), -0.3], np.full(11, 10.0))
+    assert toy.advice(back, 1.0) == "every joint's speed holds on this plan's positions with qdot_min >= -0.666 " \
+                                    "m/s (pan at y = 0.5 m)"
+    fwd = scoop_plan(0.05, np.linspace(0.0, 0.5, 11), np.r_[-0.3, np.zeros(9), 0.3], np.full(11, 10.0))
+    assert "with qdot_max <= 0.666 m/s" in toy.advice(fwd, 1.0)
     monkeypatch.setattr(toy, "binding", lambda plan, scale: ("pan", "velocity", 0.998))
     assert toy.advice(plan, 1.0) == ""
 
