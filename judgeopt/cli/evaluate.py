@@ -439,10 +439,19 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     """The held-out evidence per planner and judge (judgeopt.verdict.risk), from plans the
     calibration was not fitted on, their p recomputed by that calibration; printed at the default risk."""
     from judgeopt.evaluate.stored import read_rows
+    from judgeopt.robots import DEFAULT_ROBOT
     from judgeopt.verdict.calibration import CalibrationError, calibrate_rows
-    from judgeopt.verdict.risk import RISK, fit_evidence
+    from judgeopt.verdict.risk import RISK, evidence_key, fit_evidence
 
-    rows = [r for r in read_rows(args.evidence) if r.get("method") and r.get("environment")]
+    rows, came = [], {}  # the folders each planner, judge and arm's plans came from
+    for folder in args.evidence:
+        for r in read_rows([folder]):
+            if r.get("method") and r.get("environment"):
+                rows.append(r)
+                key = evidence_key(r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT))
+                sources = came.setdefault(key, [])
+                if folder not in sources:
+                    sources.append(folder)
     if not rows:
         raise CalibrationError(f"--evidence {' '.join(args.evidence)}: no replayed plans in these folders")
     calibrate_rows(rows, calibrators)
@@ -451,9 +460,10 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
         raise CalibrationError(f"--evidence: {seen} of its {len(rows)} plans are at environments and limits the "
                                "calibration was fitted on; the evidence must be held out (evaluate on another --seed)")
     evidence = fit_evidence(rows, confidence=args.confidence)
-    for e in evidence.values():
-        e.sources = list(args.evidence)
-        print(f"evidence, {e.method} ({e.plans} plans; judge p raised above 0.5 by the calibration: "
+    for key, e in evidence.items():
+        e.sources = came[key]
+        arm = "" if e.robots == [DEFAULT_ROBOT] else f" on {', '.join(e.robots)}"
+        print(f"evidence, {e.method}{arm} ({e.plans} plans; judge p raised above 0.5 by the calibration: "
               f"{e.raised['successes']} of {e.raised['n']} succeeded): {e.describe(RISK)}")
     return evidence
 

@@ -247,6 +247,15 @@ def risk_line(r) -> str:
     return risk["evidence"]
 
 
+def _own_evidence(planners, methods) -> bool:
+    """Whether the calibration file holds held-out evidence for one of these planners, with this judge, on
+    this arm (a file of evidence for an arm the maps were not fitted on is still this request's file)."""
+    from judgeopt.verdict.risk import evidence_key
+
+    sha = planners.judge_meta["weights_sha256"]
+    return any(evidence_key(m, sha, planners.problem.robot) in planners.evidence for m in methods)
+
+
 def cmd_solve(args: argparse.Namespace) -> int:
     import time
 
@@ -293,7 +302,8 @@ def cmd_solve(args: argparse.Namespace) -> int:
         from judgeopt.verdict.calibration import for_judge
 
         for_judge(planners.calibration_file, planners.judge_meta["weights_sha256"], args.set_calibration)
-    if args.set_calibration and not planners.calibrators:  # and it knows none of these planners
+    if args.set_calibration and not planners.calibrators and not _own_evidence(planners, methods):
+        # and it knows none of these planners: no map for them, nor held-out evidence on this arm
         fitted = sorted({c.description for c in planners.calibration_file.values()})
         raise ProblemError(f"--calibration {args.set_calibration} has no calibration for these planners (judge "
                            f"{planners.judge_path.name}, these limits); it was fitted for: {'; '.join(fitted) or 'nothing'}."

@@ -131,6 +131,40 @@ def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
     assert "likely_at" not in r and "unchecked here" in r["risk"]["evidence"]
 
 
+def test_each_arms_evidence_is_its_own_and_names_only_its_own_folder(tmp_path, capsys):
+    """Two folders, the UR5's and the Kinova's: 200 clean plans at p 0.996 on the UR5 (p >= 0.95 then holds a
+    2 % risk, bound 1.5 %), and on the Kinova 20 failures in 200 at the same p (bound above 13 %: no threshold
+    holds it). Solve on the Kinova reads the Kinova's and is never likely; each key's sources are its folder."""
+    from judgeopt.judge.store import load_judge
+    from judgeopt.verdict.calibration import load_calibration_file
+    from judgeopt.verdict.risk import evidence_key
+
+    sha = load_judge(resolve("models/judge_refined"))[1]["weights_sha256"]
+
+    def rows(robot, failures):
+        return [{"method": "direct", "judge_sha256": sha, "robot": robot, "predicted_success": 0.996,
+                 "simulated_success": k >= failures, "max_constraint_violation": 0.0,
+                 "environment": {"y_obj": 0.1 + k * 0.0009, "mu": 1.0 + k * 0.01},
+                 "limits": {"qdot_max": 0.3 + k * 0.0035, "f_max": 22.5}} for k in range(200)]
+
+    for name, robot, failures in (("ur5", "ur5", 0), ("kinova", "kinova", 20)):
+        (tmp_path / name / "partial").mkdir(parents=True)
+        (tmp_path / name / "partial" / "chunk.json").write_text(json.dumps(rows(robot, failures)))
+    cal = tmp_path / "cal.json"
+    cal.write_bytes(resolve("models/calibration_default.json").read_bytes())
+    assert main(["calibrate", "--evidence", str(tmp_path / "ur5"), str(tmp_path / "kinova"), "--out", str(cal)]) == 0
+    out = capsys.readouterr().out
+    assert "evidence, direct on kinova (200 plans" in out and "no threshold holds a 2 % risk" in out
+    evidence = load_calibration_file(cal)[1]
+    ur5, kinova = evidence[evidence_key("direct", sha)], evidence[evidence_key("direct", sha, "kinova")]
+    assert (ur5.sources, ur5.robots, ur5.at(0.02)["threshold"]) == ([str(tmp_path / "ur5")], ["ur5"], 0.5)
+    assert (kinova.sources, kinova.robots, kinova.at(0.02)) == ([str(tmp_path / "kinova")], ["kinova"], None)
+    main(["solve", "--robot", "kinova", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal),
+          "--qdot-max", "0.4"])
+    (r,) = json.loads(capsys.readouterr().out)["results"]
+    assert r["likely_at"] is None and r["verdict"] != "likely" and "direct" in r["risk"]["evidence"]
+
+
 @pytest.mark.parametrize("risk", ["0", "1", "nan", "2 %"])
 def test_a_risk_that_is_not_a_rate_is_one_line(risk, capsys):
     with pytest.raises(SystemExit) as exit:
