@@ -24,8 +24,8 @@ from judgeopt.robots import DEFAULT_ROBOT, robot_names
 HOLD = 1e-6
 
 
-def run(robot: str, qdot_max: float, n: int, seed: int) -> dict:
-    own = judgeopt.load_problem("paper_sim", qdot_max=qdot_max, robot=robot)
+def run(robot: str, qdot_max: float, n: int, seed: int, judge: str | None = None) -> dict:
+    own = judgeopt.load_problem("paper_sim", qdot_max=qdot_max, robot=robot, **({"judge": judge} if judge else {}))
     ur5 = judgeopt.load_problem("paper_sim", qdot_max=qdot_max)
     planners = {"made for the UR5": judgeopt.load_planners(ur5, ["direct"]),
                 f"made for the {robot}": judgeopt.load_planners(own, ["direct"])}
@@ -61,6 +61,8 @@ def main() -> None:
     ap.add_argument("--robots", nargs="+", default=[r for r in robot_names() if r != DEFAULT_ROBOT])
     ap.add_argument("--qdot-max", type=float, nargs="+", default=[1.0, 0.4])
     ap.add_argument("--out", default="out/arm_plans")
+    ap.add_argument("--judge", help="the judge the arm's own plans are made and judged with (default: the problem's, "
+                    "the UR5's); the UR5's plans keep the problem's")
     args = ap.parse_args()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -71,7 +73,7 @@ def main() -> None:
         for q in args.qdot_max:
             path = out / f"{robot}_{q:g}_s{args.seed}_n{args.n}.json"
             if not path.exists():
-                atomic_write(path, json.dumps(run(robot, q, args.n, args.seed)))
+                atomic_write(path, json.dumps(run(robot, q, args.n, args.seed, args.judge)))
             res = json.loads(path.read_text())
             results.append(res)
             for name, o in res["plans"].items():
@@ -79,7 +81,8 @@ def main() -> None:
                 lines.append(f"| {robot} | {q:g} | {name} | {o['success']}/{o['planned']} | {o['held']}/{o['planned']} "
                              f"| {o['likely']} / {o['likely_failed']} | {over} |")
     table = "\n".join(lines) + "\n"
-    atomic_write(out / "arm_plans.md", f"Command: `python scripts/arm_plans.py --n {args.n} --seed {args.seed}`\n\n"
+    judge = f" --judge {args.judge}" if args.judge else ""
+    atomic_write(out / "arm_plans.md", f"Command: `python scripts/arm_plans.py --n {args.n} --seed {args.seed}{judge}`\n\n"
                  + table)
     print(table)
     plot(results, out / "arm_plans.png")

@@ -17,7 +17,8 @@ import pinocchio as pin
 
 from judgeopt.robots import get_robot, register_robot
 from judgeopt.sim.controller import solve_ik, wrap_angles
-from judgeopt.tasks.scoop.placement import arm_model, scoop_line
+from judgeopt.tasks.scoop.arm_path import level_pose, tool_model
+from judgeopt.tasks.scoop.placement import scoop_line
 from judgeopt.tasks.scoop.scene import SceneConfig
 
 
@@ -38,10 +39,9 @@ def main() -> None:
     # the search moves the base from the world's origin: the arm as written with its own placement undone
     unplaced = dataclasses.replace(spec, name=f"{spec.name}_unplaced", base_xyz=(0.0, 0.0, 0.0), base_yaw=0.0)
     register_robot(unplaced)
-    base_model, tcp = arm_model(unplaced.name)
+    scene = SceneConfig(robot=unplaced.name)
+    base_model, tcp = tool_model(scene)
     first = base_model.jointPlacements[1].copy()
-    scene = SceneConfig()
-    home_point = np.array([scene.x_home, 0.0, scene.spatula.tcp_height_on_plate()])
     rng = np.random.default_rng(0)
     lo, hi = base_model.lowerPositionLimit, base_model.upperPositionLimit
     best = (-np.inf, None)
@@ -52,7 +52,7 @@ def main() -> None:
             for k in range(args.seeds):
                 seed = np.array(spec.home) if k == 0 else rng.uniform(np.maximum(lo, -np.pi), np.minimum(hi, np.pi))
                 try:
-                    home = solve_ik(base_model, tcp, pin.SE3(np.eye(3), home_point), seed)
+                    home = solve_ik(base_model, tcp, level_pose(scene, 0.0), seed)
                 except ValueError:
                     continue
                 home = wrap_angles(home)
@@ -60,6 +60,9 @@ def main() -> None:
                 if s > best[0]:
                     best = (s, (round(float(bx), 3) + 0.0, round(float(bz), 3) + 0.0, home.round(3).tolist()))
         print(f"base x {bx:+.2f}: best so far {best[0]:.3f} {best[1]}", flush=True)
+    if best[1] is None:
+        raise SystemExit(f"no base placement on the grid holds the tool level at the home point from {args.seeds} "
+                         "IK starts: try more --seeds, or a base grid that suits this arm")
     s, (bx, bz, home) = best
     print(f"\nscore {s:.3f}\nbase_xyz=({bx}, 0.0, {bz}),\nhome={tuple(home)},")
 

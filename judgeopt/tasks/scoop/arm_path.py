@@ -20,19 +20,28 @@ from judgeopt.tasks.scoop.scene import SceneConfig
 TCP_FRAME = "tcp"
 
 
+def tool_model(scene: SceneConfig) -> tuple[pin.Model, int]:
+    """The arm + spatula's Pinocchio model (the URDF the simulator loads) and its TCP frame."""
+    model = pin.buildModelFromUrdf(str(robot_urdf(scene.spatula, wrist_inertia=scene.wrist_inertia,
+                                                  robot=scene.robot)))
+    return model, model.getFrameId(TCP_FRAME)
+
+
+def level_pose(scene: SceneConfig, y: float, lift: float = 0.0) -> pin.SE3:
+    """The TCP level at (x_home, y), the blade on the plate (or `lift` above it): where the rollout holds it."""
+    return pin.SE3(np.eye(3), np.array([scene.x_home, y, scene.spatula.tcp_height_on_plate() + lift]))
+
+
 def scoop_arm(scene: SceneConfig | None = None) -> ArmModel:
     """The arm + spatula of `scene` (default: the shipped UR5) as an ArmModel: the same URDF the
     simulator and its controller load, the same IK and home posture the rollout starts from."""
     cfg = scene or SceneConfig()
     spec = get_robot(cfg.robot)
-    model = pin.buildModelFromUrdf(str(robot_urdf(cfg.spatula, wrist_inertia=cfg.wrist_inertia, robot=cfg.robot)))
+    model, tcp = tool_model(cfg)
     home = np.array(spec.home)
-    tcp = model.getFrameId(TCP_FRAME)
-    z_contact = cfg.spatula.tcp_height_on_plate()
-    x_home = cfg.x_home
 
     def pose(position: np.ndarray) -> pin.SE3:
-        return pin.SE3(np.eye(3), np.array([x_home, float(np.ravel(position)[0]), z_contact]))
+        return level_pose(cfg, float(np.ravel(position)[0]))
 
     def ik(position: np.ndarray, start: np.ndarray | None = None) -> np.ndarray:
         # as ArmDriver.joints_for: angles wrapped to [-pi, pi)

@@ -9,14 +9,14 @@ line the plans use lies inside the workspace with margin; this measures it, for 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
 from judgeopt.robots import get_robot
 from judgeopt.sim.controller import solve_ik, wrap_angles
-from judgeopt.sim.robot import SpatulaGeometry, robot_urdf
+from judgeopt.tasks.scoop.arm_path import level_pose, tool_model
 from judgeopt.tasks.scoop.rollout import Y_RANGE, RolloutConfig
 from judgeopt.tasks.scoop.scene import SceneConfig
 
@@ -46,22 +46,15 @@ class Reach:
         return None if best is None else (float(self.y[best[0]]), float(self.y[best[1] - 1]))
 
 
-def arm_model(robot: str, spatula: SpatulaGeometry | None = None) -> tuple[pin.Model, int]:
-    """The arm + spatula's Pinocchio model (the URDF the simulator loads) and its TCP frame."""
-    model = pin.buildModelFromUrdf(str(robot_urdf(spatula, robot=robot)))
-    return model, model.getFrameId("tcp")
-
-
 def scoop_line(robot: str, scene: SceneConfig | None = None, step: float = 0.025, home: np.ndarray | None = None,
                model: tuple[pin.Model, int] | None = None) -> Reach:
     """IK along the positions the rollout may command (rollout.Y_RANGE), from the arm's home posture
     outwards from y = 0, each pose started from its neighbour's solution (the branch the rollout keeps),
     angles wrapped to [-pi, pi) as the driver does."""
-    cfg = scene or SceneConfig()
-    g, x_home, lift = cfg.spatula, cfg.x_home, RolloutConfig().lift_height
-    m, tcp = model or arm_model(robot, g)
+    cfg = replace(scene or SceneConfig(), robot=robot)
+    lift = RolloutConfig().lift_height
+    m, tcp = model or tool_model(cfg)
     data = m.createData()
-    z = g.tcp_height_on_plate()
     y = np.round(np.arange(Y_RANGE[0], Y_RANGE[1] + step / 2, step), 9)
     reached, margin, sigma = np.zeros(len(y), bool), np.full(len(y), -np.inf), np.zeros(len(y))
     start = np.array(get_robot(robot).home if home is None else home, dtype=float)
@@ -70,7 +63,7 @@ def scoop_line(robot: str, scene: SceneConfig | None = None, step: float = 0.025
         q_prev = start
         for i in order:
             try:
-                qs = [solve_ik(m, tcp, pin.SE3(np.eye(3), np.array([x_home, y[i], z + h])), q_prev) for h in (0.0, lift)]
+                qs = [solve_ik(m, tcp, level_pose(cfg, float(y[i]), h), q_prev) for h in (0.0, lift)]
             except ValueError:
                 break
             q_prev = qs[0]
