@@ -387,23 +387,30 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
         raise CalibrationError(f"--evidence: {out} holds no calibration to add it to; fit one first with "
                                f"`judgeopt calibrate FOLDER... --out {out}`")
     kept, old_evidence = load_calibration_file(out) if out.exists() else ({}, {})
-    kept = {} if args.replace else kept
-    fitted = _fit_calibration(args) if args.folders else {}
+    kept, old_evidence = ({}, {}) if args.replace else (kept, old_evidence)
+    fitted, refitted = _fit_calibration(args) if args.folders else ({}, set())
     calibrators = {**{k: v for k, v in kept.items() if k not in fitted}, **fitted}
-    evidence = _risk_evidence(args, calibrators) if args.evidence else {}
-    if fitted and not evidence and old_evidence:
-        print(f"note: the held-out evidence in {out} described the calibration being replaced and is dropped; "
-              "recompute it with --evidence FOLDER (`judgeopt evaluate band` on another seed)")
+    # evidence describes the p of its planner, judge and arm: that of the ones refitted here is stale
+    stale = sorted(k for k in old_evidence if k in refitted)
+    evidence = {**{k: v for k, v in old_evidence.items() if k not in refitted},
+                **(_risk_evidence(args, calibrators) if args.evidence else {})}
+    if [k for k in stale if k not in evidence]:
+        print(f"note: the held-out evidence in {out} for {', '.join(k for k in stale if k not in evidence)} described "
+              "the calibration being replaced and is dropped; recompute it with --evidence FOLDER (`judgeopt evaluate "
+              "band` on another seed)")
     save_calibration(out, calibrators, evidence)
     print(f"wrote {out} ({len(fitted)} settings fitted, {len(calibrators) - len(fitted)} kept from before"
           f"{f', evidence for {len(evidence)} planners' if evidence else ''})")
     return 0
 
 
-def _fit_calibration(args: argparse.Namespace) -> dict:
-    """Fit a calibrator per setting in the folders and print the table of them."""
+def _fit_calibration(args: argparse.Namespace) -> tuple[dict, set[str]]:
+    """Fit a calibrator per setting in the folders and print the table of them; with the evidence keys
+    (verdict.risk.evidence_key) of the plans fitted on."""
     from judgeopt.evaluate.stored import read_rows
+    from judgeopt.robots import DEFAULT_ROBOT
     from judgeopt.verdict.calibration import CalibrationError, describe, fit_from_rows
+    from judgeopt.verdict.risk import evidence_key
 
     rows = read_rows(args.folders)
     with_setting = [r for r in rows if r.get("setting") and (not args.methods or r.get("method") in args.methods)]
@@ -413,7 +420,7 @@ def _fit_calibration(args: argparse.Namespace) -> dict:
         raise CalibrationError(f"{args.folders}: these plans carry no planner setting (made before calibration "
                                "existed); rerun the evaluation")
     env_names = list(with_setting[0]["environment"])
-    descriptions = {r["setting"]: r.get("setting_description", r["method"]) for r in with_setting}
+    descriptions = {r["setting"]: _named_arm(r) for r in with_setting}
     if args.over_limits and not all("family" in r and "limits" in r for r in with_setting):
         raise CalibrationError(f"{args.folders}: these plans do not record their limits (made before --over-limits "
                                "existed); rerun the evaluation")
@@ -432,7 +439,17 @@ def _fit_calibration(args: argparse.Namespace) -> dict:
                             if k in c.alternatives)
         print(f"| {c.setting} | {d['description']} | {c.n} | {d['success_pct']:.0f} % | {ranges} "
               f"| {d['cv_log_loss']:.3f} ({others} / {d['constant_log_loss']:.3f}){' -> the rate' if c.constant else ''} |")
-    return fitted
+    by = "family" if args.over_limits else "setting"
+    return fitted, {evidence_key(r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT))
+                    for r in with_setting if r[by] in fitted}
+
+
+def _named_arm(row: dict) -> str:
+    """The row's setting in words, its arm named (rows recorded before descriptions named it carry it beside)."""
+    from judgeopt.planners.loaded import on_arm
+
+    text = row.get("setting_description", row["method"])
+    return text if " on " in text else text.replace(row["method"], row["method"] + on_arm(row.get("robot")), 1)
 
 
 def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:

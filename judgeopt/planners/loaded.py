@@ -60,7 +60,12 @@ class ChosenModels:
         extra = (f", generator {self.generator.name}" if "generator" in models and self.generator else "") + (
             f", ensemble {p.ensemble} - {p.pessimism:g} std" if "ensemble" in models and p.ensemble else "") + (
             f", trust region {p.trust_region:g}" if "trust_model" in models and p.trust_region is not None else "")
-        return f"{method}, judge {self.judge.name}{extra}; q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
+        return f"{method}{on_arm(p.robot)}, judge {self.judge.name}{extra}; q̇_max {p.qdot_max:g}, f in [{p.f_min:g}, {p.f_max:g}]"
+
+
+def on_arm(robot: str | None) -> str:
+    """A setting's description names an arm other than the default (the default's read as before arms)."""
+    return f" on {robot}" if robot and robot != DEFAULT_ROBOT else ""
 
 
 def choose_models(problem: Problem, methods: Sequence[str], judge: str | Path | None = None,

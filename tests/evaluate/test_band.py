@@ -115,8 +115,11 @@ def _evidence_calibration(tmp_path, capsys):
 def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
     from judgeopt.verdict.calibration import load_calibration_file
 
+    from judgeopt.judge.store import load_judge
+    from judgeopt.verdict.risk import evidence_key
+
     cal = _evidence_calibration(tmp_path, capsys)
-    (ev,) = load_calibration_file(cal)[1].values()
+    ev = load_calibration_file(cal)[1][evidence_key("direct", load_judge(resolve("models/judge_refined"))[1]["weights_sha256"])]
     assert ev.ranges["qdot_max"] == [0.3, pytest.approx(0.897)] and ev.sources == [str(tmp_path / "band")]
     base = ["solve", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal), "--f-max", "20"]
     for risk, likely_at in (("0.02", 0.95), ("0.06", 0.5), ("0.001", None)):

@@ -113,6 +113,35 @@ def test_calibrate_cli_fits_from_evaluation_folders_and_keeps_other_settings(tmp
     assert set(load_calibration(out)) == {"s1"}
 
 
+def test_refitting_one_arm_drops_that_arm_s_evidence_only(tmp_path, capsys):
+    """Evidence states the risk of one planner, judge and arm's p: refitting the Kinova's calibrator makes the
+    Kinova's stale (dropped, and said), while the UR5's, whose calibrator is untouched, stays as it was."""
+    from judgeopt.verdict.calibration import load_calibration_file
+    from judgeopt.verdict.risk import Evidence, evidence_key
+
+    part = tmp_path / "ev" / "partial"
+    part.mkdir(parents=True)
+    (part / "a.json").write_text(json.dumps(_rows(120, setting="s1")))
+    out = tmp_path / "cal.json"
+    assert main(["calibrate", str(tmp_path / "ev"), "--out", str(out)]) == 0
+    ur5, kinova = evidence_key("direct", None), evidence_key("direct", None, "kinova")
+    grid = [{"threshold": 0.5, "n": 300, "failures": 0, "bound": 0.01}]
+    old = {k: Evidence("direct", None, 0.95, grid, {"n": 0, "successes": 0, "floor": 0.0}, plans=300,
+                       robots=[arm]) for k, arm in ((ur5, "ur5"), (kinova, "kinova"))}
+    save_calibration(out, load_calibration(out), old)
+    capsys.readouterr()
+    (part / "a.json").write_text(json.dumps([{**r, "setting": "s_kinova", "robot": "kinova"} for r in _rows(120)]))
+    assert main(["calibrate", str(tmp_path / "ev"), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert f"for {kinova} described the calibration being replaced and is dropped" in printed and ur5 + "," not in printed
+    calibrators, evidence = load_calibration_file(out)
+    assert set(calibrators) == {"s1", "s_kinova"} and set(evidence) == {ur5}
+    assert evidence[ur5].to_dict() == old[ur5].to_dict()
+    assert "direct on kinova" in calibrators["s_kinova"].description  # the arm named in its words
+    assert main(["calibrate", str(tmp_path / "ev"), "--out", str(out), "--replace"]) == 0
+    assert load_calibration_file(out)[1] == {}  # --replace: nothing of the old file's stays
+
+
 def test_planners_report_calibrated_success_for_their_setting(tmp_path):
     from judgeopt.planners.loaded import Planners
 
