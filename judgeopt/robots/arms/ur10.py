@@ -30,7 +30,7 @@ ARM = RobotSpec(
     home=(-0.388, -1.183, 1.989, -2.377, -1.571, -1.959),  # scripts/place_arm.py ur10
     base_xyz=(-0.45, 0.0, 0.0),
     masses={link: Correction(m, _UR) for link, m in MASSES.items()},
-    inertias={link: Correction(cylinder(MASSES[link], r, h), f"the file's cylinder with {_UR}'s mass")
+    inertias={link: Correction(cylinder(MASSES[link], r, h), f"the file's cylinder with UR's mass, {_UR}")
               for link, (r, h) in _CYLINDER.items()},
     notes="limits match Universal Robots' within 4 %; masses checked against UR's (Universal_Robots_ROS2_Description, "
           "config/ur10/physical_parameters.yaml): shoulder, forearm and wrist 3 corrected from 7.778/3.87/0.202 kg to "
