@@ -19,7 +19,7 @@ import numpy as np
 from judgeopt.errors import Missing
 from judgeopt.files import atomic_write, cache_dir as default_cache_dir, make_cache_dir
 from judgeopt.robots import DEFAULT_ROBOT, get_robot
-from judgeopt.robots.spec import Correction, RobotSpec
+from judgeopt.robots.spec import Correction, RobotError, RobotSpec
 
 
 #: where the arm's link inertias and masses come from: "universal_robots" (the maker's figures where the file is
@@ -192,10 +192,10 @@ def correct_inertias(urdf: str, inertias: dict[str, Correction]) -> str:
 def correct_masses(urdf: str, masses: dict[str, Correction]) -> str:
     """The URDF text with these links' masses replaced (centre of mass and inertial frame kept)."""
     for link, fix in masses.items():
-        mass = float(fix.value)
-        if not mass > 0:
-            raise RobotDescriptionError(f"the mass correction for {link} is {mass} kg; a link's mass must be positive")
-        urdf = _replace_in_inertial(urdf, link, "mass", f'<mass value="{mass:.10g}"/>', "mass")
+        mass = fix.value
+        if not isinstance(mass, (int, float)) or not mass > 0:
+            raise RobotError(f"the mass correction for {link} is {mass!r}; a link's mass is one positive number [kg]")
+        urdf = _replace_in_inertial(urdf, link, "mass", f'<mass value="{float(mass):.10g}"/>', "mass")
     return urdf
 
 

@@ -257,8 +257,9 @@ def test_a_mass_correction_stays_inside_its_link():
     assert 'mass value="2"' in correct_masses(urdf, {"b": Correction(2.0, "test")})
     with pytest.raises(RobotDescriptionError, match="^the installed description has no mass for a$"):
         correct_masses(urdf.replace('<link name="a"/>', '<link name="a"></link>'), {"a": Correction(2.0, "test")})
-    with pytest.raises(RobotDescriptionError, match="must be positive"):
-        correct_masses(urdf, {"b": Correction(0.0, "test")})
+    for bad in (0.0, float("nan"), (1.0, 2.0)):
+        with pytest.raises(RobotError, match="^the mass correction for b is .*; a link's mass is one positive number"):
+            correct_masses(urdf, {"b": Correction(bad, "test")})
 
 
 def test_an_unknown_robot_is_one_line_naming_the_known_ones():
