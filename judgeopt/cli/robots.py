@@ -23,7 +23,8 @@ def describe(name: str, reach: bool = False, check: bool = False) -> dict[str, A
     model = pin.buildModelFromUrdf(str(robot_urdf(robot=name)))
     corrections = [{"kind": kind, "part": part, "value": fix.value, "source": fix.source}
                    for kind, table in (("velocity limit", spec.velocity_limits), ("effort limit", spec.effort_limits),
-                                       ("inertia", spec.inertias)) for part, fix in table.items()]
+                                       ("inertia", spec.inertias), ("mass", spec.masses))
+                   for part, fix in table.items()]
     d = {"name": spec.name, "title": spec.title, "description": spec.description, "joints": list(spec.joints),
          "velocity_limit": model.velocityLimit.round(4).tolist(), "effort_limit": model.effortLimit.round(3).tolist(),
          "mass": round(sum(i.mass for i in model.inertias), 3), "base_xyz": list(spec.base_xyz),

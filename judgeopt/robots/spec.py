@@ -51,6 +51,8 @@ class RobotSpec:
     effort_limits: dict[str, Correction] = field(default_factory=dict)
     #: link name -> Correction of its inertia tensor's diagonal (ixx, iyy, izz) [kg m^2], off-diagonals zero
     inertias: dict[str, Correction] = field(default_factory=dict)
+    #: link name -> Correction of its mass [kg] (its centre of mass stays the file's)
+    masses: dict[str, Correction] = field(default_factory=dict)
     #: PyBullet holds each joint at or below its velocity limit, as the arm's drives do (PyBullet's own cap is
     #: 100 rad/s): a plan asking more of a slow arm falls behind in simulation as on the robot
     cap_joint_speed: bool = True

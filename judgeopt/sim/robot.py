@@ -19,12 +19,12 @@ import numpy as np
 from judgeopt.errors import Missing
 from judgeopt.files import atomic_write, cache_dir as default_cache_dir, make_cache_dir
 from judgeopt.robots import DEFAULT_ROBOT, get_robot
-from judgeopt.robots.spec import Correction, RobotSpec
+from judgeopt.robots.spec import Correction, RobotError, RobotSpec
 
 
-#: where the arm's link inertias come from: "universal_robots" (the maker's figures where the file is wrong:
-#: RobotSpec.inertias, for the UR5 its wrists, from Universal Robots) or "example_robot_data" (the file as
-#: shipped: the scene of every dataset made before 2026-11-22)
+#: where the arm's link inertias and masses come from: "universal_robots" (the maker's figures where the file is
+#: wrong: RobotSpec.inertias and .masses, for the UR5 its wrists, from Universal Robots) or "example_robot_data"
+#: (the file as shipped: the scene of every dataset made before 2026-11-22)
 WRIST_INERTIA_SOURCES = ("universal_robots", "example_robot_data")
 
 
@@ -169,15 +169,33 @@ MASSLESS = ('<inertial><mass value="0"/><origin xyz="0 0 0"/>'
             '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>')
 
 
+def _replace_in_inertial(urdf: str, link: str, element: str, new: str, what: str) -> str:
+    """The URDF text with one element (`<mass .../>`, `<inertia .../>`) of this link's `<inertial>` replaced.
+    The match stays inside the link (a link without an inertial must not pass the fix on to the next one)."""
+    inside = r"(?:(?!</link>).)*?"
+    pattern = re.compile(rf'(<link name="{re.escape(link)}">{inside}<inertial>{inside})<{element} [^>]*/>', re.S)
+    urdf, n = pattern.subn(lambda m: m.group(1) + new, urdf, count=1)
+    if n != 1:
+        raise RobotDescriptionError(f"the installed description has no {what} for {link}")
+    return urdf
+
+
 def correct_inertias(urdf: str, inertias: dict[str, Correction]) -> str:
     """The URDF text with these links' inertia tensors replaced (diagonal, in the link's inertial frame)."""
     for link, fix in inertias.items():
         ixx, iyy, izz = fix.value
-        pattern = re.compile(rf'(<link name="{link}">.*?<inertial>.*?)<inertia [^>]*/>', re.S)
         new = f'<inertia ixx="{ixx:.10g}" ixy="0.0" ixz="0.0" iyy="{iyy:.10g}" iyz="0.0" izz="{izz:.10g}"/>'
-        urdf, n = pattern.subn(lambda m: m.group(1) + new, urdf, count=1)
-        if n != 1:
-            raise RobotDescriptionError(f"the installed description has no inertia for {link}")
+        urdf = _replace_in_inertial(urdf, link, "inertia", new, "inertia")
+    return urdf
+
+
+def correct_masses(urdf: str, masses: dict[str, Correction]) -> str:
+    """The URDF text with these links' masses replaced (centre of mass and inertial frame kept)."""
+    for link, fix in masses.items():
+        mass = fix.value
+        if not isinstance(mass, (int, float)) or not mass > 0:
+            raise RobotError(f"the mass correction for {link} is {mass!r}; a link's mass is one positive number [kg]")
+        urdf = _replace_in_inertial(urdf, link, "mass", f'<mass value="{float(mass):.10g}"/>', "mass")
     return urdf
 
 
@@ -278,7 +296,7 @@ def robot_urdf(geometry: SpatulaGeometry | None = None, cache_dir: Path | None =
                                     "(pip install -U example-robot-data)")
     src = path.read_text().replace("package://", str(share) + "/")
     if wrist_inertia == "universal_robots":
-        src = correct_inertias(src, spec.inertias)
+        src = correct_masses(correct_inertias(src, spec.inertias), spec.masses)
     src = _rewrite(src, spec)
     cache = make_cache_dir(cache_dir or default_cache_dir())
     verts = blade_vertices(g)

@@ -58,3 +58,11 @@ def test_positions_beyond_the_reached_segment_are_infeasible(capsys):
     assert "robot 'kinova' cannot hold the tool at position" in line and "[q_min, q_max] = [-0.2, 0.7] m" in line
     y = float(line.split("at position ")[1].split(" m")[0])
     assert 0.4 < y <= 0.7  # the first position past its reach, inside the limits asked for
+
+
+def test_a_mass_correction_for_a_link_the_file_lacks_names_it(arm, capsys):
+    from judgeopt.robots.spec import Correction
+
+    name = arm("ghostmass", masses={"ghost_link": Correction(1.0, "test")})
+    assert main([*SOLVE, "--robot", name]) == ExitCode.MISSING
+    assert _one_line(capsys).endswith("the installed description has no mass for ghost_link")
