@@ -391,13 +391,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     fitted, refitted = _fit_calibration(args) if args.folders else ({}, set())
     calibrators = {**{k: v for k, v in kept.items() if k not in fitted}, **fitted}
     # evidence describes the p of its planner, judge and arm: that of the ones refitted here is stale
-    stale = sorted(k for k in old_evidence if k in refitted)
-    evidence = {**{k: v for k, v in old_evidence.items() if k not in refitted},
-                **(_risk_evidence(args, calibrators) if args.evidence else {})}
-    if [k for k in stale if k not in evidence]:
-        print(f"note: the held-out evidence in {out} for {', '.join(k for k in stale if k not in evidence)} described "
-              "the calibration being replaced and is dropped; recompute it with --evidence FOLDER (`judgeopt evaluate "
-              "band` on another seed)")
+    new = _risk_evidence(args, calibrators) if args.evidence else {}
+    evidence = {**{k: v for k, v in old_evidence.items() if k not in refitted}, **new}
+    dropped = sorted(k for k in old_evidence if k in refitted and k not in new)
+    if dropped:
+        print(f"note: the held-out evidence in {out} for {', '.join(dropped)} described the calibration being "
+              "replaced and is dropped; recompute it with --evidence FOLDER (`judgeopt evaluate band` on another seed)")
     save_calibration(out, calibrators, evidence)
     print(f"wrote {out} ({len(fitted)} settings fitted, {len(calibrators) - len(fitted)} kept from before"
           f"{f', evidence for {len(evidence)} planners' if evidence else ''})")
