@@ -169,14 +169,14 @@ MASSLESS = ('<inertial><mass value="0"/><origin xyz="0 0 0"/>'
             '<inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>')
 
 
-def _replace_in_inertial(urdf: str, link: str, element: str, new: str, what: str) -> str:
+def _replace_in_inertial(urdf: str, link: str, element: str, new: str) -> str:
     """The URDF text with one element (`<mass .../>`, `<inertia .../>`) of this link's `<inertial>` replaced.
     The match stays inside the link (a link without an inertial must not pass the fix on to the next one)."""
     inside = r"(?:(?!</link>).)*?"
     pattern = re.compile(rf'(<link name="{re.escape(link)}">{inside}<inertial>{inside})<{element} [^>]*/>', re.S)
     urdf, n = pattern.subn(lambda m: m.group(1) + new, urdf, count=1)
     if n != 1:
-        raise RobotDescriptionError(f"the installed description has no {what} for {link}")
+        raise RobotDescriptionError(f"the installed description has no {element} for {link}")
     return urdf
 
 
@@ -185,7 +185,7 @@ def correct_inertias(urdf: str, inertias: dict[str, Correction]) -> str:
     for link, fix in inertias.items():
         ixx, iyy, izz = fix.value
         new = f'<inertia ixx="{ixx:.10g}" ixy="0.0" ixz="0.0" iyy="{iyy:.10g}" iyz="0.0" izz="{izz:.10g}"/>'
-        urdf = _replace_in_inertial(urdf, link, "inertia", new, "inertia")
+        urdf = _replace_in_inertial(urdf, link, "inertia", new)
     return urdf
 
 
@@ -195,7 +195,7 @@ def correct_masses(urdf: str, masses: dict[str, Correction]) -> str:
         mass = fix.value
         if not isinstance(mass, (int, float)) or not mass > 0:
             raise RobotError(f"the mass correction for {link} is {mass!r}; a link's mass is one positive number [kg]")
-        urdf = _replace_in_inertial(urdf, link, "mass", f'<mass value="{float(mass):.10g}"/>', "mass")
+        urdf = _replace_in_inertial(urdf, link, "mass", f'<mass value="{float(mass):.10g}"/>')
     return urdf
 
 
