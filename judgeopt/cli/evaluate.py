@@ -377,6 +377,7 @@ def _argv(args: argparse.Namespace) -> list[str]:
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
     from judgeopt.verdict.calibration import CalibrationError, load_calibration_file, save_calibration
+    from judgeopt.verdict.risk import whose
 
     check_writable([args.out])
     if not args.folders and not args.evidence:
@@ -390,10 +391,12 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     kept, old_evidence = ({}, {}) if args.replace else (kept, old_evidence)
     fitted, refitted = _fit_calibration(args) if args.folders else ({}, set())
     calibrators = {**{k: v for k, v in kept.items() if k not in fitted}, **fitted}
-    # evidence describes the p of its planner, judge and arm: that of the ones refitted here is stale
+    # evidence describes the p of its planner, judge and arm: that of the ones refitted here is stale, and
+    # new evidence replaces all the old of its planner, judge and arm (every kind of p)
     new = _risk_evidence(args, calibrators) if args.evidence else {}
-    evidence = {**{k: v for k, v in old_evidence.items() if k not in refitted}, **new}
-    dropped = sorted(k for k in old_evidence if k in refitted and k not in new)
+    renewed = {whose(k) for k in new}
+    evidence = {**{k: v for k, v in old_evidence.items() if whose(k) not in refitted | renewed}, **new}
+    dropped = sorted(k for k in old_evidence if whose(k) in refitted - renewed)
     if dropped:
         print(f"note: the held-out evidence in {out} for {', '.join(dropped)} described the calibration being "
               "replaced and is dropped; recompute it with --evidence FOLDER (`judgeopt evaluate band` on another seed)")
@@ -457,7 +460,7 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     from judgeopt.evaluate.stored import read_rows
     from judgeopt.robots import DEFAULT_ROBOT
     from judgeopt.verdict.calibration import CalibrationError, calibrate_rows
-    from judgeopt.verdict.risk import RISK, evidence_key, fit_evidence
+    from judgeopt.verdict.risk import RISK, evidence_key, fit_evidence, whose
 
     rows, came = [], {}  # the folders each planner, judge and arm's plans came from
     for folder in args.evidence:
@@ -477,10 +480,11 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
                                "calibration was fitted on; the evidence must be held out (evaluate on another --seed)")
     evidence = fit_evidence(rows, confidence=args.confidence)
     for key, e in evidence.items():
-        e.sources = came[key]
+        e.sources = came[whose(key)]
         arm = "" if e.robots == [DEFAULT_ROBOT] else f" on {', '.join(e.robots)}"
-        print(f"evidence, {e.method}{arm} ({e.plans} plans; judge p raised above 0.5 by the calibration: "
-              f"{e.raised['successes']} of {e.raised['n']} succeeded): {e.describe(RISK)}")
+        lifted = (f"; judge p raised above 0.5 by the calibration: {e.raised['successes']} of {e.raised['n']} succeeded"
+                  if e.kind != "judge" else "")
+        print(f"evidence, {e.subject}{arm} ({e.plans} plans{lifted}): {e.describe(RISK)}")
     return evidence
 
 

@@ -144,7 +144,7 @@ def _calibration(p: Path) -> dict[str, Any]:
     from judgeopt.verdict.risk import RISK
 
     calibrators, found = load_calibration_file(p)
-    evidence = [{"planner": k, "plans": e.plans, "confidence": e.confidence, "sources": e.sources,
+    evidence = [{"planner": k, "kind of p": e.kind or "both (stored before they were kept apart)", "plans": e.plans, "confidence": e.confidence, "sources": e.sources,
                  "ranges": {n: [round(lo, 4), round(hi, 4)] for n, (lo, hi) in e.ranges.items() if hi > lo},
                  f"at risk {RISK:g}": e.describe(RISK), "raised above 0.5 by the calibration": e.raised,
                  "thresholds": e.grid} for k, e in found.items()]

@@ -250,10 +250,10 @@ def risk_line(r) -> str:
 def _own_evidence(planners, methods) -> bool:
     """Whether the calibration file holds held-out evidence for one of these planners, with this judge, on
     this arm (a file of evidence for an arm the maps were not fitted on is still this request's file)."""
-    from judgeopt.verdict.risk import evidence_key
+    from judgeopt.verdict.risk import evidence_key, whose
 
     sha = planners.judge_meta["weights_sha256"]
-    return any(evidence_key(m, sha, planners.problem.robot) in planners.evidence for m in methods)
+    return bool({evidence_key(m, sha, planners.problem.robot) for m in methods} & {whose(k) for k in planners.evidence})
 
 
 def cmd_solve(args: argparse.Namespace) -> int:

@@ -10,6 +10,11 @@ on the failure rate (at the evidence's confidence, 95 % by default) is <= r; whe
 planner cannot say likely at that risk ("uncertain"). A planner and judge with no evidence has
 no stated risk: its verdict says so ("risk unchecked").
 
+Evidence is kept apart by the kind of p (`KINDS`): a calibrated p and the judge's own (a plan no
+calibration covers, e.g. one planned under a constraint set) are different numbers, and one
+threshold shared between them let the judge's own p borrow the calibrated p's record: every
+plan called likely that failed on the arms' held-out bands (seeds 606, 707) had the judge's own p.
+
 The calibrated p may raise a judge's p below 0.5 only as far as the evidence's lower confidence
 bound on the success rate of the plans it raised so (`raise_floor`): on the band, 4 of 19 such
 plans succeeded where the map said 0.8-0.9.
@@ -53,11 +58,28 @@ def lower_bound(successes: int, n: int, confidence: float = CONFIDENCE) -> float
     return 1.0 - upper_bound(n - successes, n, confidence) if successes else 0.0
 
 
-def evidence_key(method: str, judge_sha256: str | None, robot: str = DEFAULT_ROBOT) -> str:
-    """Evidence is per planner, judge and arm, over every limit and constraint set it was drawn at (the
-    default arm's keys read as before arms were chosen)."""
+#: the kinds of p evidence is kept for, apart: a calibrated p and the judge's own (rules.stood_behind's sources)
+KINDS = ("calibrated", "judge")
+
+
+def evidence_key(method: str, judge_sha256: str | None, robot: str = DEFAULT_ROBOT, kind: str = "") -> str:
+    """Evidence is per planner, judge, arm and kind of p (KINDS; "": both, as stored before they were kept
+    apart), over every limit and constraint set it was drawn at (the default arm's keys read as before
+    arms were chosen)."""
     key = f"{method}@{(judge_sha256 or 'unknown')[:16]}"
-    return key if robot == DEFAULT_ROBOT else f"{key}@{robot}"
+    key = key if robot == DEFAULT_ROBOT else f"{key}@{robot}"
+    return f"{key}#{kind}" if kind else key
+
+
+def whose(key: str) -> str:
+    """The planner, judge and arm of an evidence key (evidence_key without its kind of p)."""
+    return key.split("#", 1)[0]
+
+
+def kind_of(row: Mapping[str, Any]) -> str:
+    """The kind of p a plan's result (its info, or its JSON row) is judged by: "calibrated" where a
+    calibration covers it (rules.stood_behind), else the judge's own."""
+    return "calibrated" if row.get("calibration_covers") and row.get("calibrated_success") is not None else "judge"
 
 
 @dataclass
@@ -74,6 +96,14 @@ class Evidence:
     sources: list[str] = field(default_factory=list)  # the evaluation folders it was counted from
     #: the arms the plans were replayed on (evidence stored before arms were chosen: the default's)
     robots: list[str] = field(default_factory=lambda: [DEFAULT_ROBOT])
+    #: the kind of p its plans were judged by (KINDS; "": both, as stored before they were kept apart)
+    kind: str = ""
+
+    @property
+    def subject(self) -> str:
+        """Its planner, in words with the kind of p: what a threshold is a threshold on."""
+        of = {"calibrated": " with a calibrated p", "judge": " with the judge's own p"}.get(self.kind, "")
+        return self.method + of
 
     @property
     def raise_floor(self) -> float:
@@ -101,10 +131,10 @@ class Evidence:
         pct = f"{100 * self.confidence:g} %"
         if row is None:
             best = min(self.grid, key=lambda g: g["bound"])
-            return (f"no threshold holds a {100 * risk:g} % risk on {self.plans} held-out plans of {self.method} "
+            return (f"no threshold holds a {100 * risk:g} % risk on {self.plans} held-out plans of {self.subject} "
                     f"(the best: p >= {best['threshold']:g}, {int(best['failures'])} of {int(best['n'])} failed, "
                     f"{pct} bound {100 * best['bound']:.1f} %), so it is never called likely at that risk")
-        return (f"likely at p >= {row['threshold']:g}: of {int(row['n'])} held-out plans of {self.method} there, "
+        return (f"likely at p >= {row['threshold']:g}: of {int(row['n'])} held-out plans of {self.subject} there, "
                 f"{int(row['failures'])} failed ({pct} upper bound {100 * row['bound']:.1f} % <= risk {100 * risk:g} %)")
 
     def to_dict(self) -> dict[str, Any]:
@@ -125,8 +155,10 @@ def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: s
     for key in ("raise_floor", "likely_at", "risk"):
         target.pop(key, None)
     robot = values.get("robot", DEFAULT_ROBOT)
-    # none on this arm: the default arm's, whose `outside` then says the plans were replayed on another arm
-    ev = evidence.get(evidence_key(method, judge_sha256, robot)) or evidence.get(evidence_key(method, judge_sha256))
+    # this kind of p's, else both kinds' (stored before they were kept apart); none on this arm: the
+    # default arm's, whose `outside` then says the plans were replayed on another arm
+    ev = next((evidence[k] for arm in (robot, DEFAULT_ROBOT) for kind in (kind_of(target), "")
+               if (k := evidence_key(method, judge_sha256, arm, kind)) in evidence), None)
     if ev is None:
         return
     beyond = ev.outside(values)
@@ -148,24 +180,28 @@ def capped(predicted: float | None, calibrated: float, floor: float) -> float:
 
 def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDENCE,
                  grid: Iterable[float] = GRID) -> dict[str, Evidence]:
-    """Per planner and judge, from replayed result rows whose calibrated p was computed by the
+    """Per planner, judge, arm and kind of p (both kinds, even where one had no plans: its p is then
+    never likely, not unchecked), from replayed result rows whose calibrated p was computed by the
     calibration the evidence is stored with (calibration.calibrate_rows). Counted: plans with a
     p that hold their limits and lie inside the judge's data or a calibration's cover."""
-    by: dict[tuple[str, str | None, str], list[Mapping[str, Any]]] = {}
+    by: dict[tuple[str, str | None, str, str], list[Mapping[str, Any]]] = {}
     for r in rows:
         if r.get("method") and r.get("simulated_success") is not None and r.get("predicted_success") is not None:
-            by.setdefault((r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT)), []).append(r)
+            whose_ = (r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT))
+            for kind in KINDS:
+                by.setdefault((*whose_, kind), [])
+            by[(*whose_, kind_of(r))].append(r)
     out = {}
-    for (method, sha, robot), rs in sorted(by.items(), key=lambda kv: evidence_key(*kv[0])):
-        y = np.array([bool(r["simulated_success"]) for r in rs])
+    for (method, sha, robot, kind), rs in sorted(by.items(), key=lambda kv: evidence_key(*kv[0])):
+        y = np.array([bool(r["simulated_success"]) for r in rs], bool)
         judge = np.array([r["predicted_success"] for r in rs], float)
-        covered = np.array([bool(r.get("calibration_covers")) and r.get("calibrated_success") is not None for r in rs])
-        cal = np.array([r["calibrated_success"] if c else j for r, c, j in zip(rs, covered, judge)], float)
+        covered = kind == "calibrated"
+        cal = np.array([r["calibrated_success"] for r in rs], float) if covered else judge
         raised = covered & (judge < RAISE_FROM) & (cal >= RAISE_FROM)
         floor = lower_bound(int(y[raised].sum()), int(raised.sum()), confidence)
-        p = np.array([capped(j, c, floor) for j, c in zip(judge, cal)])  # uncovered: c is the judge's own
+        p = np.array([capped(j, c, floor) for j, c in zip(judge, cal)], float)
         eligible = np.array([(r.get("max_constraint_violation") or 0.0) <= HOLD_TOL
-                             and (cov or not r.get("outside_judge_data")) for r, cov in zip(rs, covered)])
+                             and (covered or not r.get("outside_judge_data")) for r in rs], bool)
         table = []
         for t in sorted(grid):
             s = eligible & (p >= t)
@@ -173,10 +209,10 @@ def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDEN
             table.append({"threshold": float(t), "n": n, "failures": k, "bound": round(upper_bound(k, n, confidence), 6)})
         values = [{**{k: v for k, v in r.get("limits", {}).items() if isinstance(v, (int, float))}, **r["environment"]}
                   for r in rs]
-        common = set(values[0]).intersection(*values[1:])
-        out[evidence_key(method, sha, robot)] = Evidence(
+        common = set(values[0]).intersection(*values[1:]) if values else set()
+        out[evidence_key(method, sha, robot, kind)] = Evidence(
             method, sha, confidence, table,
             {"n": int(raised.sum()), "successes": int(y[raised].sum()), "floor": round(floor, 6)}, plans=len(rs),
             ranges={k: [float(min(v[k] for v in values)), float(max(v[k] for v in values))] for k in sorted(common)},
-            robots=[robot])
+            robots=[robot], kind=kind)
     return out

@@ -80,13 +80,14 @@ def test_evidence_is_counted_per_arm_and_one_arms_never_states_anothers_risk():
                  "environment": {"y_obj": 0.2}, "limits": {"qdot_max": 1.0}, **extra} for k in range(300)]
 
     ev = fit_evidence(rows("ur5", 0) + rows("kinova", 30))
-    assert set(ev) == {evidence_key("direct", "ab" * 32), evidence_key("direct", "ab" * 32, "kinova")}
-    assert ev[evidence_key("direct", "ab" * 32, "kinova")].grid[-1]["failures"] == 30
-    assert ev[evidence_key("direct", "ab" * 32)].grid[-1]["failures"] == 0
+    assert set(ev) == {evidence_key("direct", "ab" * 32, arm, kind) for arm in ("ur5", "kinova")
+                       for kind in ("calibrated", "judge")}
+    assert ev[evidence_key("direct", "ab" * 32, "kinova", "judge")].grid[-1]["failures"] == 30
+    assert ev[evidence_key("direct", "ab" * 32, kind="judge")].grid[-1]["failures"] == 0
     target: dict = {}
     annotate(target, ev, "direct", "ab" * 32, {"y_obj": 0.2, "qdot_max": 1.0, "robot": "kinova"})
     assert target["likely_at"] is None  # 30 of 300 failed on the Kinova: no threshold holds 2 %
-    only_ur5 = {evidence_key("direct", "ab" * 32): ev[evidence_key("direct", "ab" * 32)]}
+    only_ur5 = {k: e for k, e in ev.items() if e.robots == ["ur5"]}
     target = {}
     annotate(target, only_ur5, "direct", "ab" * 32, {"y_obj": 0.2, "qdot_max": 1.0, "robot": "panda"})
     assert "likely_at" not in target and "robot panda (ur5)" in target["risk"]["evidence"]

@@ -91,10 +91,11 @@ def test_the_settings_with_a_constraint_set_are_counted_alone_too():
 
 
 def _evidence_calibration(tmp_path, capsys):
-    """The shipped calibration with held-out evidence built so that p >= 0.95 holds a 2 % risk, 0.5 a
-    6 % one and no threshold 0.1 %: 200 clean plans at p 0.996, 10 failures in 100 at p 0.92, drawn
-    over q̇_max 0.3-0.9 at f_max 20 and the paper's environments."""
+    """A calibration file without calibrators (every p the judge's own), with held-out evidence built so
+    that p >= 0.95 holds a 2 % risk, 0.5 a 6 % one and no threshold 0.1 %: 200 clean plans at p 0.996,
+    10 failures in 100 at p 0.92, drawn over q̇_max 0.3-0.9 at f_max 20 and the paper's environments."""
     from judgeopt.judge.store import load_judge
+    from judgeopt.verdict.calibration import save_calibration
 
     sha = load_judge(resolve("models/judge_refined"))[1]["weights_sha256"]
     rows = ([{"method": "direct", "judge_sha256": sha, "predicted_success": 0.996, "simulated_success": True,
@@ -105,10 +106,9 @@ def _evidence_calibration(tmp_path, capsys):
                 "limits": {"qdot_max": 0.5, "f_max": 20.0}} for k in range(100)])
     (tmp_path / "band" / "partial").mkdir(parents=True)
     (tmp_path / "band" / "partial" / "chunk.json").write_text(json.dumps(rows))
-    cal = tmp_path / "cal.json"
-    cal.write_bytes(resolve("models/calibration_default.json").read_bytes())
+    cal = save_calibration(tmp_path / "cal.json", {})
     assert main(["calibrate", "--evidence", str(tmp_path / "band"), "--out", str(cal)]) == 0
-    assert "likely at p >= 0.95: of 200 held-out plans of direct there, 0 failed" in capsys.readouterr().out
+    assert "likely at p >= 0.95: of 200 held-out plans of direct with the judge's own p there, 0 failed" in capsys.readouterr().out
     return cal
 
 
@@ -119,7 +119,8 @@ def test_calibrate_stores_held_out_evidence_that_solve_reads(tmp_path, capsys):
     from judgeopt.verdict.risk import evidence_key
 
     cal = _evidence_calibration(tmp_path, capsys)
-    ev = load_calibration_file(cal)[1][evidence_key("direct", load_judge(resolve("models/judge_refined"))[1]["weights_sha256"])]
+    ev = load_calibration_file(cal)[1][evidence_key("direct", load_judge(resolve("models/judge_refined"))[1]["weights_sha256"],
+                                                kind="judge")]
     assert ev.ranges["qdot_max"] == [0.3, pytest.approx(0.897)] and ev.sources == [str(tmp_path / "band")]
     base = ["solve", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal), "--f-max", "20"]
     for risk, likely_at in (("0.02", 0.95), ("0.06", 0.5), ("0.001", None)):
@@ -157,9 +158,9 @@ def test_each_arms_evidence_is_its_own_and_names_only_its_own_folder(tmp_path, c
     cal.write_bytes(resolve("models/calibration_default.json").read_bytes())
     assert main(["calibrate", "--evidence", str(tmp_path / "ur5"), str(tmp_path / "kinova"), "--out", str(cal)]) == 0
     out = capsys.readouterr().out
-    assert "evidence, direct on kinova (200 plans" in out and "no threshold holds a 2 % risk" in out
+    assert "evidence, direct with the judge's own p on kinova (200 plans" in out and "no threshold holds a 2 % risk" in out
     evidence = load_calibration_file(cal)[1]
-    ur5, kinova = evidence[evidence_key("direct", sha)], evidence[evidence_key("direct", sha, "kinova")]
+    ur5, kinova = evidence[evidence_key("direct", sha, kind="judge")], evidence[evidence_key("direct", sha, "kinova", "judge")]
     assert (ur5.sources, ur5.robots, ur5.at(0.02)["threshold"]) == ([str(tmp_path / "ur5")], ["ur5"], 0.5)
     assert (kinova.sources, kinova.robots, kinova.at(0.02)) == ([str(tmp_path / "kinova")], ["kinova"], None)
     main(["solve", "--robot", "kinova", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal),

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from judgeopt.verdict.risk import (GRID, Evidence, annotate, capped, evidence_key, fit_evidence, lower_bound,
-                                   upper_bound)
+                                   upper_bound, whose)
 
 
 def test_clopper_pearson_bounds_match_their_closed_forms():
@@ -27,11 +27,17 @@ def _row(p, success, method="direct", **kw):
             "limits": {"qdot_max": 0.5, "f_max": 13.0}, **kw}
 
 
+def _judges(rows, **kw):
+    """The evidence of the judge's own p (rows without a covering calibration), of the one planner in `rows`."""
+    (ev,) = [e for e in fit_evidence(rows, **kw).values() if e.kind == "judge"]
+    return ev
+
+
 def test_the_threshold_is_the_lowest_whose_bound_holds_the_risk():
     # 200 plans at p 0.996 all succeed, 100 at p 0.92 fail 10 times: from p >= 0.95 up, 0 of 200 failed
     rows = [_row(0.996, True)] * 200 + [_row(0.92, i >= 10) for i in range(100)]
-    (key, ev), = fit_evidence(rows).items()
-    assert key == evidence_key("direct", "ab" * 32) and ev.plans == 300
+    (key, ev), = [(k, e) for k, e in fit_evidence(rows).items() if e.plans]
+    assert key == evidence_key("direct", "ab" * 32, kind="judge") and ev.plans == 300
     assert ev.at(0.02)["threshold"] == 0.95 and (ev.at(0.02)["n"], ev.at(0.02)["failures"]) == (200, 0)
     assert ev.at(0.005) is None  # 200 clean plans bound the rate at 1.5 %, no lower
     assert ev.at(0.06)["threshold"] == GRID[0]  # 10 of 300 failed: 5.2 % bound
@@ -41,13 +47,14 @@ def test_the_threshold_is_the_lowest_whose_bound_holds_the_risk():
 def test_plans_that_break_a_limit_or_lie_outside_the_data_unchecked_are_no_evidence():
     rows = ([_row(0.999, True)] * 150 + [_row(0.999, False, max_constraint_violation=0.5)] * 50
             + [_row(0.999, False, outside_judge_data=["mu = 4"])] * 50)
-    ev = next(iter(fit_evidence(rows).values()))
+    ev = _judges(rows)
     assert ev.grid[-1]["n"] == 150 and ev.grid[-1]["failures"] == 0 and ev.at(0.02) is not None
 
 
 def test_a_calibrated_lift_of_a_low_judge_p_goes_only_as_far_as_such_lifts_succeeded():
     lifted = [_row(0.3, i < 4, calibrated_success=0.9, calibration_covers=True) for i in range(19)]
-    ev = next(iter(fit_evidence(lifted + [_row(0.999, True)] * 200).values()))
+    clean = [_row(0.999, True, calibrated_success=0.999, calibration_covers=True)] * 200
+    ev = fit_evidence(lifted + clean)[evidence_key("direct", "ab" * 32, kind="calibrated")]
     assert (ev.raised["n"], ev.raised["successes"]) == (19, 4)
     assert ev.raise_floor == pytest.approx(lower_bound(4, 19), abs=1e-6) and ev.raise_floor < 0.3
     assert capped(0.3, 0.9, ev.raise_floor) == 0.3  # the evidence does not back the lift
@@ -57,7 +64,7 @@ def test_a_calibrated_lift_of_a_low_judge_p_goes_only_as_far_as_such_lifts_succe
     # a calibrated p over a judge's p already at 0.5 or above is no lift; a judge's p of exactly 0.5 neither
     others = [_row(0.9, False, calibrated_success=0.95, calibration_covers=True)] * 7
     others += [_row(0.5, False, calibrated_success=0.9, calibration_covers=True)] * 3
-    assert next(iter(fit_evidence(lifted + others).values())).raised["n"] == 19
+    assert fit_evidence(lifted + others)[evidence_key("direct", "ab" * 32, kind="calibrated")].raised["n"] == 19
 
 
 def test_the_evidence_speaks_inside_its_ranges_only():
@@ -74,19 +81,21 @@ def test_the_evidence_speaks_inside_its_ranges_only():
 
 
 def test_evidence_round_trips_through_its_dict():
-    ev = next(iter(fit_evidence([_row(0.999, True)] * 30).values()))
+    ev = _judges([_row(0.999, True)] * 30)
     assert Evidence.from_dict(ev.to_dict()) == ev
 
 
 def test_what_a_result_carries_word_for_word():
     rows = [_row(0.996, True)] * 200 + [_row(0.92, i >= 10) for i in range(100)]
-    ev = next(iter(fit_evidence(rows, confidence=0.9).values()))
+    ev = _judges(rows, confidence=0.9)
     row = ev.at(0.02)
     assert row == {"threshold": 0.95, "n": 200, "failures": 0, "bound": round(1 - 0.1 ** (1 / 200), 6)}
-    assert ev.describe(0.02) == ("likely at p >= 0.95: of 200 held-out plans of direct there, 0 failed "
+    assert ev.describe(0.02) == ("likely at p >= 0.95: of 200 held-out plans of direct with the judge's own p "
+                                 "there, 0 failed "
                                  f"(90 % upper bound {100 * row['bound']:.1f} % <= risk 2 %)")
     best = min(ev.grid, key=lambda g: g["bound"])
-    assert ev.describe(0.001) == ("no threshold holds a 0.1 % risk on 300 held-out plans of direct (the best: "
+    assert ev.describe(0.001) == ("no threshold holds a 0.1 % risk on 300 held-out plans of direct with the judge's "
+                                  "own p (the best: "
                                   f"p >= {best['threshold']:g}, 0 of 200 failed, 90 % bound {100 * best['bound']:.1f} %), "
                                   "so it is never called likely at that risk")
     target = {"raise_floor": 0.3, "likely_at": 0.1, "risk": {}, "kept": 1}
@@ -119,28 +128,67 @@ def test_which_rows_count():
     base = [_row(0.999, True)] * 150
     extra = [{**_row(0.999, False), "method": None}, {**_row(0.999, False), "simulated_success": None},
              {**_row(None, False)}]
-    assert next(iter(fit_evidence(base + extra).values())).plans == 150  # no method, outcome or p: not a plan
+    assert _judges(base + extra).plans == 150  # no method, outcome or p: not a plan
     # a calibrated p counts only where the calibration covers the plan (and says a number)
     uncovered = [_row(0.3, False, calibrated_success=0.999, calibration_covers=False)] * 20
     nothing = [_row(0.3, False, calibration_covers=True)] * 20
-    ev = next(iter(fit_evidence(base + uncovered + nothing).values()))
+    ev = _judges(base + uncovered + nothing)
     assert ev.grid[-1] == {"threshold": 0.999, "n": 150, "failures": 0, "bound": round(upper_bound(0, 150), 6)}
     assert ev.raised["n"] == 0
     exactly = [_row(0.3, True, calibrated_success=0.5, calibration_covers=True)] * 5  # lifted to exactly 0.5
-    assert next(iter(fit_evidence(base + exactly).values())).raised == {"n": 5, "successes": 5,
+    assert fit_evidence(base + exactly)[evidence_key("direct", "ab" * 32, kind="calibrated")].raised == {
+        "n": 5, "successes": 5,
                                                                        "floor": round(lower_bound(5, 5), 6)}
     at_tol = [_row(0.999, False, max_constraint_violation=1e-3)] * 3  # at the tolerance: holds, so it counts
-    assert next(iter(fit_evidence(base + at_tol).values())).grid[-1]["failures"] == 3
+    assert _judges(base + at_tol).grid[-1]["failures"] == 3
     mixed = [_row(0.999, True, limits={"qdot_max": 0.4, "f_min": 7.5})] + [_row(0.999, True)] * 3
-    assert set(next(iter(fit_evidence(mixed).values())).ranges) == {"qdot_max", "y_obj", "mu"}  # those all have
+    assert set(_judges(mixed).ranges) == {"qdot_max", "y_obj", "mu"}  # those all have
     second = [_row(0.999, True), _row(0.999, True, limits={"qdot_max": 0.4}), _row(0.999, True)]  # no f_max in one
-    assert set(next(iter(fit_evidence(second).values())).ranges) == {"qdot_max", "y_obj", "mu"}
+    assert set(_judges(second).ranges) == {"qdot_max", "y_obj", "mu"}
     two = fit_evidence([_row(0.999, True)] * 3 + [_row(0.999, True, method="amortized", judge_sha256="cd" * 32)])
     assert {k: (e.method, e.judge_sha256, e.plans) for k, e in two.items()} == {
-        "direct@abababababababab": ("direct", "ab" * 32, 3), "amortized@cdcdcdcdcdcdcdcd": ("amortized", "cd" * 32, 1)}
+        "direct@abababababababab#judge": ("direct", "ab" * 32, 3), "direct@abababababababab#calibrated": ("direct", "ab" * 32, 0),
+        "amortized@cdcdcdcdcdcdcdcd#judge": ("amortized", "cd" * 32, 1),
+        "amortized@cdcdcdcdcdcdcdcd#calibrated": ("amortized", "cd" * 32, 0)}
+    assert {whose(k) for k in two} == {"direct@abababababababab", "amortized@cdcdcdcdcdcdcdcd"}
 
 
 def test_the_default_risk_and_confidence_are_the_documented_two_and_ninety_five():
     from judgeopt.verdict import risk
 
     assert (risk.RISK, risk.CONFIDENCE, risk.RAISE_FROM) == (0.02, 0.95, 0.5)
+
+
+def test_each_kind_of_p_sets_its_own_threshold():
+    # calibrated p: 200 clean plans at 0.9; the judge's own p: 200 plans at 0.999, 8 of them failed. One
+    # threshold for both (as stored before they were kept apart) would let the judge's p ride on the others'
+    cal = [_row(0.6, True, calibrated_success=0.9, calibration_covers=True)] * 200
+    own = [_row(0.999, i >= 8) for i in range(200)]
+    ev = fit_evidence(cal + own)
+    c, j = ev[evidence_key("direct", "ab" * 32, kind="calibrated")], ev[evidence_key("direct", "ab" * 32, kind="judge")]
+    assert (c.plans, j.plans) == (200, 200) and c.at(0.02)["threshold"] == GRID[0] and j.at(0.02) is None
+    assert "with a calibrated p" in c.describe() and "with the judge's own p" in j.describe()
+    values = {"qdot_max": 0.5, "f_max": 13.0, "y_obj": 0.2, "mu": 2.0}
+    covered, uncovered = {"calibrated_success": 0.95, "calibration_covers": True}, {"calibrated_success": 0.95}
+    annotate(covered, ev, "direct", "ab" * 32, values)
+    annotate(uncovered, ev, "direct", "ab" * 32, values)
+    assert covered["likely_at"] == GRID[0] and uncovered["likely_at"] is None
+    # a kind no plan had is never likely (not "risk unchecked")
+    only = fit_evidence(cal)
+    none_own = {}
+    annotate(none_own, only, "direct", "ab" * 32, values)
+    assert none_own["likely_at"] is None and "on 0 held-out plans of direct with the judge's own p" in \
+        none_own["risk"]["evidence"]
+
+
+def test_evidence_stored_before_the_kinds_were_kept_apart_speaks_for_both():
+    mixed = Evidence("direct", "ab" * 32, 0.95, [{"threshold": 0.9, "n": 200, "failures": 0, "bound": 0.015}], {})
+    for row in ({}, {"calibrated_success": 0.95, "calibration_covers": True}):
+        annotate(row, {evidence_key("direct", "ab" * 32): mixed}, "direct", "ab" * 32, {"y_obj": 0.2})
+        assert row["likely_at"] == 0.9 and "held-out plans of direct there" in row["risk"]["evidence"]
+    # a kind's own evidence wins over the mixed one
+    own = Evidence("direct", "ab" * 32, 0.95, [{"threshold": 0.9, "n": 10, "failures": 0, "bound": 0.26}], {}, kind="judge")
+    row = {}
+    annotate(row, {evidence_key("direct", "ab" * 32): mixed, evidence_key("direct", "ab" * 32, kind="judge"): own},
+             "direct", "ab" * 32, {"y_obj": 0.2})
+    assert row["likely_at"] is None
