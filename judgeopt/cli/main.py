@@ -18,7 +18,7 @@ from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError
                                  check_range, command_line, command_of, env_range, env_set, env_values, jobs_option,
                                  missing_extra, out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
                                  using_plugins, value_range, wants_json)
-from judgeopt.cli.interrupts import held
+from judgeopt.interrupts import held
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
 from judgeopt.robots import DEFAULT_ROBOT

@@ -118,25 +118,7 @@ def test_ctrl_c_at_any_moment_of_solve_is_one_line_and_130(tmp_path, how, when):
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
-# -- the two native traps: Ctrl-C inside an extension's import, and CPython's mark of a nested interrupt ----
-def test_a_ctrl_c_while_held_is_raised_when_the_block_ends():
-    from judgeopt.cli.interrupts import held
-
-    finished = []
-    # Python's own handler, as in a terminal (a shell that starts the tests in the background ignores SIGINT)
-    before = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            with held():
-                os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(0.05)  # the handler runs between bytecodes: here it only records the signal
-                finished.append(True)
-        assert finished == [True]
-        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    finally:
-        signal.signal(signal.SIGINT, before)
-
-
+# -- CPython's mark of a nested interrupt (holding Ctrl-C in an extension's import: tests/test_interrupts.py) --
 _NESTED = """
 import ctypes, sys
 api = ctypes.pythonapi
