@@ -142,3 +142,34 @@ def test_a_handled_nested_interrupt_exits_130_not_by_sigint_under_python_m(tmp_p
                                     capture_output=True, timeout=60).returncode
     assert run() == -signal.SIGINT  # the trap is real on this Python
     assert run("forget") == 130
+
+
+_LATE = """
+import os, signal, sys, time
+from judgeopt.cli import main
+sys.argv = ["judgeopt", "tasks"]
+code = main()
+os.kill(os.getpid(), signal.SIGINT)  # a Ctrl-C after the command finished, before the process exits
+time.sleep(0.05)
+sys.exit(code)
+"""
+
+
+def test_a_ctrl_c_after_the_command_finished_leaves_its_exit_status(tmp_path):
+    """The process that is the command (main() without argv) ignores a Ctrl-C that comes too late to
+    stop anything: it was raised in runpy (death by SIGINT under `python -m`), or in the teardown
+    killed the process by SIGINT outright (exit -2 after a solve that had finished)."""
+    (tmp_path / "late_ctrl_c.py").write_text(_LATE)
+    from judgeopt.files import REPO
+
+    run = subprocess.run([sys.executable, "-m", "late_ctrl_c"], cwd=tmp_path, capture_output=True, timeout=60,
+                         env={**os.environ, "PYTHONPATH": str(REPO)},
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert run.returncode == 0, run.stderr.decode()[-2000:]
+    assert b"Traceback" not in run.stderr
+
+
+def test_a_command_called_from_python_leaves_ctrl_c_as_it_was(cli, capsys):
+    before = signal.getsignal(signal.SIGINT)
+    assert cli.main(["tasks"]) == 0
+    assert signal.getsignal(signal.SIGINT) is before
