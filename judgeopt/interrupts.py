@@ -1,10 +1,11 @@
 """Ctrl-C held while native code runs Python, and acted on when the native code has returned.
 
 Why: a KeyboardInterrupt raised where native code called back into Python is lost or fatal. Inside
-a C++ extension's import (torch's pybind11 code) it terminates the process with SIGABRT; inside a
-CasADi callback (the judge, while Ipopt runs) CasADi prints a warning and Ipopt goes on to converge.
-So such code runs with SIGINT recorded instead of raised. Shared by the command line (imports) and
-the direct planner (Ipopt), hence here and public. Light to import (signal and threading only):
+a C++ extension's import (torch's pybind11 code) it terminates the process with SIGABRT; CasADi runs
+Python's handler inside its own calls and drops the KeyboardInterrupt (in a judge callback Ipopt goes
+on to converge; in a symbolic build the build goes on). So such code runs with SIGINT recorded instead
+of raised. Shared by the command line (imports), the direct planner and the simulator's compiled step
+(CasADi), hence here and public. Light to import (signal and threading only):
 judgeopt.cli's own import holds Ctrl-C with it.
 """
 
@@ -30,10 +31,11 @@ def held() -> Iterator[None]:
 @contextlib.contextmanager
 def sigint_recorded() -> Iterator[list[int]]:
     """The SIGINTs that arrive while the block runs, recorded in the list it yields instead of handled;
-    the caller stops (raises KeyboardInterrupt) once the native call returns. For a solve: it acts
-    wherever SIGINT is handled from Python and not ignored, whatever the handler, since a host's
-    handler run inside the judge callback would have whatever it raises swallowed by CasADi, and the
-    user's Ctrl-C would not stop a solve that may run for max_cpu_time."""
+    the caller raises KeyboardInterrupt once the block has ended. For code that runs CasADi (an Ipopt
+    solve, a symbolic build), which calls Python's handler itself and drops what it raises (13 of 20
+    Ctrl-Cs during a loop of plain SX/MX operations). So it acts wherever SIGINT is handled from Python
+    and not ignored, whatever the handler: a host's handler run inside CasADi would have its exception
+    dropped too, and a solve would go on for up to max_cpu_time after the user asked it to stop."""
     with _recording(lambda handler: handler is not None) as caught:  # None: installed from C, not Python
         yield caught
 

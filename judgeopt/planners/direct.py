@@ -140,7 +140,10 @@ class DirectPlanner(Planner):
             raise ProblemError("planning for a set of environments needs objective = target (its judge constraint "
                                "holds per environment)")
         self.samples, self.case = samples, case
-        self._build()
+        with sigint_recorded() as seen:  # CasADi would drop a Ctrl-C's KeyboardInterrupt (judgeopt.interrupts)
+            self._build()
+        if seen:
+            raise KeyboardInterrupt
 
     @classmethod
     def build(cls, context: BuildContext) -> "DirectPlanner":
@@ -491,7 +494,7 @@ class DirectPlanner(Planner):
             ubx[-1] = max(0.0, working - self._hard) if np.isfinite(working) else 0.0
             p = np.concatenate(fixed + [x])
             x0 = np.append(x, min(ubx[-1], max(0.0, working - reached)))
-        with sigint_recorded() as seen:
+        with sigint_recorded() as seen:  # raised inside a judge callback, CasADi would let Ipopt go on
             sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
         runs.append(self.solver.stats())
         # a Ctrl-C held while Ipopt ran, or one CasADi turned into Ipopt's stop: the solve was interrupted
