@@ -48,7 +48,7 @@ def wanted_threads() -> int:
     return DEFAULT_THREADS if _WANTED is None else _WANTED
 
 
-#: what torch's import runs inside: the command line sets its Ctrl-C hold (cli.interrupts.held), since a
+#: what torch's import runs inside: the command line sets its Ctrl-C hold (judgeopt.interrupts.held), since a
 #: Ctrl-C inside torch's native import code aborts the process
 import_guard: Callable[[], ContextManager[None]] = contextlib.nullcontext
 

@@ -1,6 +1,6 @@
 """The `judgeopt` command line: one package, one subcommand module per pipeline stage."""
 
-from judgeopt.cli.interrupts import held as _held
+from judgeopt.interrupts import held as _held
 
 try:
     with _held():  # a Ctrl-C inside an extension's import (numpy's) would be an ImportError and a traceback

@@ -1,37 +1,27 @@
-"""Ctrl-C that ends in one line and exit 130 whenever it comes (judgeopt.cli.main prints the line).
+"""The command's own exit status, not death by SIGINT, however late a Ctrl-C comes (judgeopt.cli.main).
 
-Two ways it did not, both in native code that runs Python: a KeyboardInterrupt raised inside a
-C++ extension's import (torch's pybind11 code) terminates the process with SIGABRT, so such
-imports hold Ctrl-C until they end (`held`); and CPython marks a KeyboardInterrupt that left code
-an extension ran through PyRun_* as unhandled and, under `python -m`, kills itself with SIGINT at
-exit even after the interrupt was handled (`forget_nested_interrupt`). Light to import: the
-package's own import holds Ctrl-C with it.
+Two ways it was not: CPython marks a KeyboardInterrupt that left code an extension ran through
+PyRun_* (torch's import) as unhandled and, under `python -m`, kills itself with SIGINT at exit even
+after the interrupt was handled (`forget_nested_interrupt`); and a Ctrl-C after main returned, in
+runpy or the interpreter's teardown, escaped every handler (`ignore_late_interrupts`). The process's
+exit status is the command line's business, hence here; holding Ctrl-C in native code
+(judgeopt.interrupts) is shared with the planners.
 """
 
 from __future__ import annotations
 
-import contextlib
 import signal
 import threading
-from typing import Iterator
 
 
-@contextlib.contextmanager
-def held() -> Iterator[None]:
-    """A Ctrl-C while the block runs is raised (as KeyboardInterrupt) when it ends. Only where
-    Python's own handler is installed, in the main thread: another handler is not ours to replace."""
-    if threading.current_thread() is not threading.main_thread() or \
-            signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        yield
-        return
-    caught: list[int] = []
-    signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
-    if caught:
-        raise KeyboardInterrupt
+def ignore_late_interrupts() -> None:
+    """Ignore SIGINT from now on, in a process that exits once the command's outcome is decided. A
+    Ctrl-C after that point was raised in runpy or in `sys.exit` (a traceback, and under `python -m`
+    death by SIGINT) or, once the interpreter's teardown had put back the default action, killed the
+    process by SIGINT outright: exit -2 after a command that had finished. Ignored, the command's
+    outcome (its output, and 0 or 130) stands. The teardown keeps an ignored SIGINT ignored."""
+    if threading.current_thread() is threading.main_thread():  # elsewhere signal.signal refuses
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def forget_nested_interrupt() -> None:

@@ -18,7 +18,7 @@ from judgeopt.cli.common import (EXIT_MEANINGS, JSON, OVERWRITE, QUIET, CLIError
                                  check_range, command_line, command_of, env_range, env_set, env_values, jobs_option,
                                  missing_extra, out_option, positive, print_error, restore_argv, seed_option, set_argv, threads_option,
                                  using_plugins, value_range, wants_json)
-from judgeopt.cli.interrupts import held
+from judgeopt.interrupts import held
 from judgeopt.errors import JudgeoptError
 from judgeopt.files import OutputWriteError, check_writable, refuse_overwrite
 from judgeopt.robots import DEFAULT_ROBOT
@@ -346,16 +346,23 @@ def _option_for(args: argparse.Namespace, path: Path | None) -> str | None:
 
 def main(argv: list[str] | None = None) -> int:
     """Run one command. Ctrl-C (or SIGTERM) at any moment, loading the modules the parser is built
-    from included, is one line saying what was written or kept, and exit 130."""
+    from included, is one line saying what was written or kept, and exit 130. With no `argv` the
+    process is the command (the `judgeopt` script, python -m judgeopt) and ends when main returns:
+    a Ctrl-C after the outcome is decided is ignored (ignore_late_interrupts says why)."""
     from judgeopt import files
-    from judgeopt.cli.interrupts import forget_nested_interrupt
+    from judgeopt.cli.interrupts import forget_nested_interrupt, ignore_late_interrupts
     from judgeopt.errors import interrupted
 
     start = len(files.WRITTEN)
     before = set_argv(argv)
     try:
-        return _main(argv)
+        code = _main(argv)
+        if argv is None:  # inside the try: a Ctrl-C before this is the command's, one line and 130
+            ignore_late_interrupts()
+        return code
     except KeyboardInterrupt:
+        if argv is None:
+            ignore_late_interrupts()
         forget_nested_interrupt()
         command = command_of(argv)
         print_error(f"judgeopt {command}" if command else "judgeopt", interrupted(command, _written_since(start)),

@@ -26,17 +26,15 @@ environments re-uses it. benchmarks/bench_direct.py measures each of these choic
 
 from __future__ import annotations
 
-import contextlib
 import copy
-import signal
-import threading
 import time
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Iterator
+from typing import TYPE_CHECKING
 
 import casadi as cs
 import numpy as np
 
+from judgeopt.interrupts import sigint_recorded
 from judgeopt.judge.compiled import CasadiJudge, CompiledJudge, sigmoid
 from judgeopt.planners.cold_start import cold_start, default_guess
 from judgeopt.planners.dynamics import accelerations, channel_order, plan_from_parts, step_residuals
@@ -111,27 +109,6 @@ class DirectOptions:
     repair_guess: bool = False
 
 
-@contextlib.contextmanager
-def _interrupts_seen() -> Iterator[list[int]]:
-    """Holds a SIGINT that arrives while Ipopt runs (in the main thread; elsewhere none can) and records it:
-    raised inside a judge callback, CasADi would print a warning and let Ipopt go on. The caller raises
-    KeyboardInterrupt when the solve returns (tens of milliseconds later), where the list is not empty."""
-    previous = signal.getsignal(signal.SIGINT) if threading.current_thread() is threading.main_thread() else None
-    if previous is None or previous == signal.SIG_IGN:  # not ours to see, or ignored on purpose
-        yield []
-        return
-    seen: list[int] = []
-
-    def record(signum, frame):
-        seen.append(signum)
-
-    signal.signal(signal.SIGINT, record)
-    try:
-        yield seen
-    finally:
-        signal.signal(signal.SIGINT, previous)
-
-
 class DirectPlanner(Planner):
     """Ipopt over the judge's CasADi function for one problem (any environment in it)."""
 
@@ -163,7 +140,10 @@ class DirectPlanner(Planner):
             raise ProblemError("planning for a set of environments needs objective = target (its judge constraint "
                                "holds per environment)")
         self.samples, self.case = samples, case
-        self._build()
+        with sigint_recorded() as seen:  # CasADi would drop a Ctrl-C's KeyboardInterrupt (judgeopt.interrupts)
+            self._build()
+        if seen:
+            raise KeyboardInterrupt
 
     @classmethod
     def build(cls, context: BuildContext) -> "DirectPlanner":
@@ -514,7 +494,7 @@ class DirectPlanner(Planner):
             ubx[-1] = max(0.0, working - self._hard) if np.isfinite(working) else 0.0
             p = np.concatenate(fixed + [x])
             x0 = np.append(x, min(ubx[-1], max(0.0, working - reached)))
-        with _interrupts_seen() as seen:
+        with sigint_recorded() as seen:  # raised inside a judge callback, CasADi would let Ipopt go on
             sol = self.solver(x0=np.clip(x0, self._lbx, ubx), p=p, lbx=self._lbx, ubx=ubx, lbg=lbg, ubg=self._ubg)
         runs.append(self.solver.stats())
         # a Ctrl-C held while Ipopt ran, or one CasADi turned into Ipopt's stop: the solve was interrupted

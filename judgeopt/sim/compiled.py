@@ -25,6 +25,7 @@ import numpy as np
 
 from judgeopt.cbuild import CompileError, compiled_library, source_digest
 from judgeopt.files import cache_dir
+from judgeopt.interrupts import sigint_recorded
 from judgeopt.sim import chain
 from judgeopt.sim.controller import IDENTITY, ControllerConfig, HybridController, TaskCommand
 
@@ -170,7 +171,10 @@ def build_library(model_data: dict, root: Path | None = None) -> Path:
     """The compiled step's shared library for this model, built once (a few seconds) and kept in
     the cache folder (judgeopt.cbuild)."""
     key = cache_key(model_data)
-    free, force = step_functions(model_data)
+    with sigint_recorded() as seen:  # CasADi would drop a Ctrl-C's KeyboardInterrupt (judgeopt.interrupts)
+        free, force = step_functions(model_data)
+    if seen:
+        raise KeyboardInterrupt
     lib, _ = compiled_library([free, force], Path(root or cache_dir()) / "control_step" / key, "control_step",
                               extra_c=_wrapper(free, force, len(model_data["axes"])), info={"key": key})
     return lib

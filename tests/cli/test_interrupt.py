@@ -118,25 +118,7 @@ def test_ctrl_c_at_any_moment_of_solve_is_one_line_and_130(tmp_path, how, when):
     assert not out.exists() and list(tmp_path.iterdir()) == []
 
 
-# -- the two native traps: Ctrl-C inside an extension's import, and CPython's mark of a nested interrupt ----
-def test_a_ctrl_c_while_held_is_raised_when_the_block_ends():
-    from judgeopt.cli.interrupts import held
-
-    finished = []
-    # Python's own handler, as in a terminal (a shell that starts the tests in the background ignores SIGINT)
-    before = signal.signal(signal.SIGINT, signal.default_int_handler)
-    try:
-        with pytest.raises(KeyboardInterrupt):
-            with held():
-                os.kill(os.getpid(), signal.SIGINT)
-                time.sleep(0.05)  # the handler runs between bytecodes: here it only records the signal
-                finished.append(True)
-        assert finished == [True]
-        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
-    finally:
-        signal.signal(signal.SIGINT, before)
-
-
+# -- CPython's mark of a nested interrupt (holding Ctrl-C in an extension's import: tests/test_interrupts.py) --
 _NESTED = """
 import ctypes, sys
 api = ctypes.pythonapi
@@ -160,3 +142,34 @@ def test_a_handled_nested_interrupt_exits_130_not_by_sigint_under_python_m(tmp_p
                                     capture_output=True, timeout=60).returncode
     assert run() == -signal.SIGINT  # the trap is real on this Python
     assert run("forget") == 130
+
+
+_LATE = """
+import os, signal, sys, time
+from judgeopt.cli import main
+sys.argv = ["judgeopt", "tasks"]
+code = main()
+os.kill(os.getpid(), signal.SIGINT)  # a Ctrl-C after the command finished, before the process exits
+time.sleep(0.05)
+sys.exit(code)
+"""
+
+
+def test_a_ctrl_c_after_the_command_finished_leaves_its_exit_status(tmp_path):
+    """The process that is the command (main() without argv) ignores a Ctrl-C that comes too late to
+    stop anything: it was raised in runpy (death by SIGINT under `python -m`), or in the teardown
+    killed the process by SIGINT outright (exit -2 after a solve that had finished)."""
+    (tmp_path / "late_ctrl_c.py").write_text(_LATE)
+    from judgeopt.files import REPO
+
+    run = subprocess.run([sys.executable, "-m", "late_ctrl_c"], cwd=tmp_path, capture_output=True, timeout=60,
+                         env={**os.environ, "PYTHONPATH": str(REPO)},
+                         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    assert run.returncode == 0, run.stderr.decode()[-2000:]
+    assert b"Traceback" not in run.stderr
+
+
+def test_a_command_called_from_python_leaves_ctrl_c_as_it_was(cli, capsys):
+    before = signal.getsignal(signal.SIGINT)
+    assert cli.main(["tasks"]) == 0
+    assert signal.getsignal(signal.SIGINT) is before

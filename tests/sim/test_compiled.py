@@ -4,6 +4,9 @@ be built."""
 
 import logging
 import math
+import os
+import signal
+import time
 
 import numpy as np
 import pinocchio as pin
@@ -179,6 +182,29 @@ def test_the_library_is_built_once_and_reused(urdf, tmp_path):
     stamp = lib.stat().st_mtime_ns
     assert compiled.build_library(data, tmp_path) == lib and lib.stat().st_mtime_ns == stamp
     assert sorted(p.name for p in lib.parent.parent.iterdir()) == [lib.parent.name]  # no temporary folder left
+
+
+def test_a_ctrl_c_while_the_step_is_built_is_raised_after_it_and_nothing_is_compiled(urdf, tmp_path, monkeypatch):
+    """CasADi runs Python's SIGINT handler inside its own calls and drops the KeyboardInterrupt (the
+    build went on and `judgeopt solve` exited 0), so the symbolic build holds Ctrl-C and raises it after."""
+    model = pin.buildModelFromUrdf(str(urdf))
+    data = compiled.chain.model_data(model, model.getFrameId("tcp"))
+    build, finished = compiled.step_functions, []
+
+    def interrupted(model_data):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(0.05)  # the handler runs between bytecodes: held, it only records the signal
+        finished.append(True)
+        return build(model_data)
+
+    monkeypatch.setattr(compiled, "step_functions", interrupted)
+    before = signal.signal(signal.SIGINT, signal.default_int_handler)  # Python's own, as in a terminal
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            compiled.build_library(data, tmp_path)
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert finished == [True] and list(tmp_path.iterdir()) == []
 
 
 def test_an_unknown_step_is_refused(urdf):
