@@ -460,17 +460,14 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     from judgeopt.evaluate.stored import read_rows
     from judgeopt.robots import DEFAULT_ROBOT
     from judgeopt.verdict.calibration import CalibrationError, calibrate_rows
-    from judgeopt.verdict.risk import RISK, evidence_key, fit_evidence, whose
+    from judgeopt.verdict.risk import RISK, evidence_key, fit_evidence, kind_of
 
-    rows, came = [], {}  # the folders each planner, judge and arm's plans came from
+    rows, folders = [], []  # each plan, and the folder it came from
     for folder in args.evidence:
         for r in read_rows([folder]):
             if r.get("method") and r.get("environment"):
                 rows.append(r)
-                key = evidence_key(r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT))
-                sources = came.setdefault(key, [])
-                if folder not in sources:
-                    sources.append(folder)
+                folders.append(folder)
     if not rows:
         raise CalibrationError(f"--evidence {' '.join(args.evidence)}: no replayed plans in these folders")
     calibrate_rows(rows, calibrators)
@@ -478,9 +475,15 @@ def _risk_evidence(args: argparse.Namespace, calibrators: dict) -> dict:
     if seen:
         raise CalibrationError(f"--evidence: {seen} of its {len(rows)} plans are at environments and limits the "
                                "calibration was fitted on; the evidence must be held out (evaluate on another --seed)")
+    came: dict[str, list[str]] = {}  # the folders each planner, judge, arm and kind of p's plans came from
+    for r, folder in zip(rows, folders):
+        sources = came.setdefault(evidence_key(r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT),
+                                               kind_of(r)), [])
+        if folder not in sources:
+            sources.append(folder)
     evidence = fit_evidence(rows, confidence=args.confidence)
     for key, e in evidence.items():
-        e.sources = came[whose(key)]
+        e.sources = came.get(key, [])  # none: no plan of this kind in any folder
         arm = "" if e.robots == [DEFAULT_ROBOT] else f" on {', '.join(e.robots)}"
         lifted = (f"; judge p raised above 0.5 by the calibration: {e.raised['successes']} of {e.raised['n']} succeeded"
                   if e.kind != "judge" else "")

@@ -163,6 +163,9 @@ def test_each_arms_evidence_is_its_own_and_names_only_its_own_folder(tmp_path, c
     ur5, kinova = evidence[evidence_key("direct", sha, kind="judge")], evidence[evidence_key("direct", sha, "kinova", "judge")]
     assert (ur5.sources, ur5.robots, ur5.at(0.02)["threshold"]) == ([str(tmp_path / "ur5")], ["ur5"], 0.5)
     assert (kinova.sources, kinova.robots, kinova.at(0.02)) == ([str(tmp_path / "kinova")], ["kinova"], None)
+    # no plan had a calibrated p: that kind's evidence names no folder, and is never likely
+    none = evidence[evidence_key("direct", sha, kind="calibrated")]
+    assert (none.plans, none.sources, none.at(0.5)) == (0, [], None)
     main(["solve", "--robot", "kinova", "--method", "direct", "--json", "--no-simulate", "--calibration", str(cal),
           "--qdot-max", "0.4"])
     (r,) = json.loads(capsys.readouterr().out)["results"]
