@@ -403,6 +403,9 @@ class Planners:
                     self.for_sets[key] = planner.for_env_set(len(env_set), case)
                 r = answer(m, self.for_sets[key], self.for_sets[key].solve(env, guess=start, env_set=env_set))
             else:
+                if m not in self.methods and (plan := planner.warm_start_plan(env, guess=start)) is not None:
+                    plans[m] = plan  # it only warm-starts the others: no result to report
+                    continue
                 r = answer(m, planner, planner.solve(env, guess=start))
             plans[m] = r.plan
             if m in self.methods:
