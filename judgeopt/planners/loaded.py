@@ -315,7 +315,7 @@ class Planners:
 
     def _settings(self) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.verdict.calibration import load_calibration_file, lookup
+        from judgeopt.verdict.calibration import lookup, read_calibration_file
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
@@ -329,7 +329,7 @@ class Planners:
                                   "judge's own, uncalibrated (fit one with `judgeopt calibrate`)")
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
-            self.calibration_file, self.evidence = load_calibration_file(path)
+            self.calibration_file, self.evidence = read_calibration_file(path)  # shared: never changed here
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
