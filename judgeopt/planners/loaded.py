@@ -147,7 +147,7 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     try:
         if sha256_file(model_paths(chosen.judge)[0]) == jmeta["weights_sha256"]:  # else load_judge says what is wrong
             # the library loaded once per process: a service's worker loads planners for every new environment
-            # or limits, and loading and warming it again cost each such request about 20 ms (its answers are the
+            # or limits, and loading and warming it again cost each such request about 14 ms (its answers are the
             # same bit for bit from a fresh and a reused library)
             found = (_RECALLED_HERE[key],) if key in _RECALLED_HERE else recall(cache_dir(), jmeta["weights_sha256"],
                                                                                  backend, wanted_threads())
