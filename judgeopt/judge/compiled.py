@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import hashlib
 import importlib.metadata
 import json
@@ -190,13 +191,21 @@ def fast_start_enabled() -> bool:
 # -- the record of a built library ---------------------------------------------------------------
 def installed_versions() -> dict[str, str]:
     """The installed versions of what keys a library (VERSIONED), "?" for one not installed."""
-    out = {}
+    return dict(_versions_here())
+
+
+@functools.lru_cache(maxsize=1)
+def _versions_here() -> tuple[tuple[str, str], ...]:
+    """installed_versions, read once per process: what this process runs is what it imported, and
+    reading the packages' metadata cost each load of the planners (a service's request under new
+    limits or a new environment) about 3 ms."""
+    out = []
     for dist in VERSIONED:
         try:
-            out[dist] = importlib.metadata.version(dist)
+            out.append((dist, importlib.metadata.version(dist)))
         except importlib.metadata.PackageNotFoundError:
-            out[dist] = "?"
-    return out
+            out.append((dist, "?"))
+    return tuple(out)
 
 
 def file_digests(paths: Sequence[str | Path]) -> dict[str, str]:

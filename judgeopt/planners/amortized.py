@@ -159,6 +159,11 @@ class AmortizedPlanner(Planner):
             q, v = step(q, v, a_scale * o[nf:], dt)
         return plan_from_parts(self.problem, qs, vs, fs)
 
+    def warm_start_plan(self, env: dict[str, float], guess: Any = None) -> Plan:
+        """The plan `solve` returns, without judging it: a warm start needs only the plan (the
+        judge's p and the residuals cost a service's request about as much as the rollout)."""
+        return self.plan(self.problem.env_dict(env))
+
     def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
         env = self.problem.env_dict(env)
         t0 = time.perf_counter()

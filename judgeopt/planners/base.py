@@ -86,6 +86,12 @@ class Planner(ABC):
     def solve(self, env: dict[str, float], guess: Any = None) -> "PlanResult":
         """A plan for `env`, with its predicted success, status, residuals and timing."""
 
+    def warm_start_plan(self, env: dict[str, float], guess: Any = None) -> Any:
+        """Its plan for `env` where it only warm-starts another planner (its own result is not
+        reported), made without what only a reported result carries (the judge's p, residuals);
+        None (the default): `solve` is run and its plan taken."""
+        return None
+
     def with_limits(self, problem: Any) -> "Planner | None":
         """The same planner for a problem that differs only in its limits; None (the default):
         it is built again for them."""

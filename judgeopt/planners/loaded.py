@@ -106,6 +106,10 @@ def without_generator() -> str:
     return " or ".join(f"--method {m}" for m in default_planners() if "generator" not in spec_of(m).needs)
 
 
+#: (cache folder, judge file, weights sha256, backend, threads) -> its CasadiJudge, loaded once per process
+_RECALLED_HERE: dict[tuple, Any] = {}
+
+
 def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: str | None = None
                 ) -> tuple[CompiledJudge, dict] | None:
     """The judge of a fast start (judge.compiled), as (judge, its metadata): its built library, read
@@ -139,11 +143,18 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     if backend not in RECALLED:
         return None
     found = None
+    key = (str(cache_dir()), str(Path(chosen.judge).resolve()), jmeta["weights_sha256"], backend, wanted_threads())
     try:
         if sha256_file(model_paths(chosen.judge)[0]) == jmeta["weights_sha256"]:  # else load_judge says what is wrong
-            found = recall(cache_dir(), jmeta["weights_sha256"], backend, wanted_threads())
+            # the library loaded once per process: a service's worker loads planners for every new environment
+            # or limits, and loading and warming it again cost each such request about 14 ms (its answers are the
+            # same bit for bit from a fresh and a reused library)
+            found = (_RECALLED_HERE[key],) if key in _RECALLED_HERE else recall(cache_dir(), jmeta["weights_sha256"],
+                                                                                 backend, wanted_threads())
     except OSError:
         pass
+    if found is not None:
+        _RECALLED_HERE[key] = found[0]
     cj = found[0] if found is not None else _build_library(chosen.judge, jmeta, casadi_backend, problem)
     return None if cj is None else (CompiledJudge(cj, fmt), jmeta)
 
@@ -315,7 +326,7 @@ class Planners:
 
     def _settings(self) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.verdict.calibration import load_calibration_file, lookup
+        from judgeopt.verdict.calibration import lookup, read_calibration_file
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
@@ -329,7 +340,7 @@ class Planners:
                                   "judge's own, uncalibrated (fit one with `judgeopt calibrate`)")
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
-            self.calibration_file, self.evidence = load_calibration_file(path)
+            self.calibration_file, self.evidence = read_calibration_file(path)  # shared: never changed here
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
@@ -403,6 +414,9 @@ class Planners:
                     self.for_sets[key] = planner.for_env_set(len(env_set), case)
                 r = answer(m, self.for_sets[key], self.for_sets[key].solve(env, guess=start, env_set=env_set))
             else:
+                if m not in self.methods and (plan := planner.warm_start_plan(env, guess=start)) is not None:
+                    plans[m] = plan  # it only warm-starts the others: no result to report
+                    continue
                 r = answer(m, planner, planner.solve(env, guess=start))
             plans[m] = r.plan
             if m in self.methods:

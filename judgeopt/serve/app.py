@@ -28,7 +28,7 @@ from judgeopt.errors import JudgeoptError
 from judgeopt.serve.config import ServeConfig
 from judgeopt.serve.metrics import Metrics
 from judgeopt.serve.pool import Pool
-from judgeopt.serve.request import InfeasibleRequest, prepare
+from judgeopt.serve.request import InfeasibleRequest, PreparedRequests
 from judgeopt.serve.schema import ErrorAnswer, Health, PlanAnswer, PlanRequest, Ready, describe_errors
 from judgeopt.serve.worker import WorkerOptions
 from judgeopt.serve.log import INTERNAL_ERROR, one_line, service_log
@@ -115,6 +115,7 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
     stopped with it; every route but /v1/health needs `token` where one is given."""
     pool = Pool(config.workers, config.queue, WorkerOptions(problems, config.models_dir, config.preload, config.cache),
                 config.kill_after_s, config.retry_after_s)
+    prepared = PreparedRequests(problems, config.cache)
     metrics = Metrics(lambda: pool.depth, lambda: pool.busy, lambda: pool.ready, lambda: pool.restarts)
 
     @contextlib.asynccontextmanager
@@ -152,13 +153,14 @@ def create_app(config: ServeConfig, problems: dict[str, Path], token: str | None
         if timeout > config.max_timeout_s:
             return error(422, f"timeout_s {timeout:g}: this server allows at most {config.max_timeout_s:g} s "
                               "(its --max-timeout)")
+        sent = request.model_dump()
         try:
-            prepare(request, problems)  # the command line's checks, before a worker is taken
+            prepared.get(sent)  # the command line's checks, before a worker is taken
         except InfeasibleRequest as exc:
             return error(422, str(exc), fields=exc.answer)
         except JudgeoptError as exc:
             return error(422, str(exc))
-        answer = await pool.run(request.model_dump(), timeout)
+        answer = await pool.run(sent, timeout)
         for planner, seconds in answer.timings.items():
             metrics.planner.labels(planner).observe(seconds)
         return Response(answer.body, status_code=answer.status, headers=answer.headers, media_type="application/json")

@@ -41,7 +41,9 @@ class ServeConfig:
     problems: tuple[str, ...] = ()  # problem files served besides the shipped ones, by their file's stem
     models_dir: str = "models"  # where generators are looked for (as solve --models)
     preload: tuple[str, ...] = ("paper_sim",)  # problems each worker loads before it says it is ready
-    cache: int = 16  # planners kept loaded per worker (one per problem, limits and planners asked for)
+    # planners kept loaded per worker (one per problem, limits and planners asked for); as many prepared
+    # requests kept by the server and each worker (request.PreparedRequests)
+    cache: int = 16
     retry_after_s: int = 1  # what a 503 tells a client to wait
 
     def check(self) -> None:

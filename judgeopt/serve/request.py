@@ -6,7 +6,9 @@ run in the server before a request takes a worker, and again in the worker (no t
 
 from __future__ import annotations
 
+import collections
 import functools
+import json
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Mapping, Sequence
@@ -34,6 +36,11 @@ class Prepared:
     methods: tuple[str, ...]  # one group or planner (as solve --method), or several planners
     ranges: dict[str, tuple[float, float]]  # environment variables given as [lo, hi]
     simulate: bool
+
+    @functools.cached_property
+    def problem_key(self) -> str:
+        """The problem with the request's changes as canonical JSON: which loaded planners serve it."""
+        return json.dumps(self.problem.to_dict(), sort_keys=True, default=str)
 
 
 def problem_files(extra: Sequence[str] = ()) -> dict[str, Path]:
@@ -111,3 +118,25 @@ def prepare(request: PlanRequest, problems: Mapping[str, Path]) -> Prepared:
     ranges = {k: v for k, v in problem.environment.items() if k in request.environment and isinstance(v, tuple)}
     return Prepared(problem, methods, ranges, request.simulate)
 
+
+class PreparedRequests:
+    """`prepare` for requests as a server receives them (PlanRequest.model_dump()), the last `size`
+    kept by their content: a request asked again (a robot re-planning under the same limits) skips
+    the schema, the problem's copy and checks, and the key of its planners, about 0.7 ms each in the
+    server and in the worker. Only a request that prepared is kept (an error is raised every time);
+    `timeout_s` changes nothing planned, so requests that differ in it alone share one."""
+
+    def __init__(self, problems: Mapping[str, Path], size: int):
+        self.problems, self.size = problems, size
+        self.kept: collections.OrderedDict[str, Prepared] = collections.OrderedDict()
+
+    def get(self, request: Mapping[str, Any]) -> Prepared:
+        key = json.dumps({k: v for k, v in request.items() if k != "timeout_s"}, sort_keys=True)
+        prepared = self.kept.get(key)
+        if prepared is None:
+            prepared = prepare(PlanRequest.model_validate(request), self.problems)
+            self.kept[key] = prepared
+            while len(self.kept) > self.size:
+                self.kept.popitem(last=False)
+        self.kept.move_to_end(key)
+        return prepared

@@ -66,6 +66,9 @@ class Planning:
         self.options = options
         self.loaded: collections.OrderedDict[tuple, Any] = collections.OrderedDict()
         self.simulators: dict[tuple[str, str], Any] = {}
+        from judgeopt.serve.request import PreparedRequests
+
+        self.prepared = PreparedRequests(options.problems, options.cache)
 
     def planners(self, prepared: Any, stage: Callable[[str], None]) -> Any:
         """The planners for a prepared request, loaded as `judgeopt solve` loads them (so the
@@ -80,7 +83,7 @@ class Planning:
             methods, fallback = session.methods_for(problem, asked[0], None, self.options.models_dir, prepared.simulate)
         else:
             methods, fallback = with_uses(asked), None
-        key = (json.dumps(problem.to_dict(), sort_keys=True, default=str), methods)
+        key = (prepared.problem_key, methods)
         planners = self.loaded.get(key)
         if planners is None:
             stage(f"loading the planners ({', '.join(methods)}) for problem {problem.name}")
@@ -104,11 +107,10 @@ class Planning:
     def plan(self, request: dict[str, Any], stage: Callable[[str], None]) -> tuple[int, bytes, dict[str, float]]:
         """(HTTP status, the answer as JSON, each planner's solve time) for one request."""
         from judgeopt.session import solve as session
-        from judgeopt.serve.request import InfeasibleRequest, prepare
-        from judgeopt.serve.schema import PlanRequest
+        from judgeopt.serve.request import InfeasibleRequest
 
         try:
-            prepared = prepare(PlanRequest.model_validate(request), self.options.problems)
+            prepared = self.prepared.get(request)
         except InfeasibleRequest as exc:
             return 422, finite_json({"error": str(exc), **exc.answer}), {}
         planners = self.planners(prepared, stage)

@@ -308,6 +308,27 @@ def load_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict
     return out, evidence
 
 
+#: resolved path -> ((modification time, size), what load_calibration_file read there)
+_READ: dict[str, tuple[tuple[int, int], tuple[dict[str, Calibrator], dict[str, Evidence]]]] = {}
+
+
+def read_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict[str, Evidence]]:
+    """load_calibration_file, read again only where the file changed (its modification time or
+    size): a service's worker loads planners for every new environment or limits, and parsing the
+    file cost each such request about 25 ms. The objects are shared by every caller: read them,
+    never change them (load_calibration_file gives a copy of one's own)."""
+    path = Path(path)
+    try:
+        st = path.stat()
+    except OSError:
+        return load_calibration_file(path)  # its own message for a missing file
+    key, stamp = str(path.resolve()), (st.st_mtime_ns, st.st_size)
+    kept = _READ.get(key)
+    if kept is None or kept[0] != stamp:
+        _READ[key] = kept = (stamp, load_calibration_file(path))
+    return kept[1]
+
+
 def load_calibration(path: str | Path) -> dict[str, Calibrator]:
     """Every calibrator in the file, validated (load_calibration_file)."""
     return load_calibration_file(path)[0]

@@ -104,3 +104,30 @@ def test_a_library_record_is_read_only_while_what_built_the_library_is_unchanged
     remember(tmp_path, record)
     (tmp_path / "lib" / "libjudge.so").unlink()
     assert read_record(tmp_path, record.weights_sha256, "l4casadi32") is None
+
+
+def test_a_judges_library_is_loaded_once_per_process_and_judges_as_a_fresh_one():
+    """A service's worker loads planners for every new environment or limits: the judge's library is
+    recalled once, and the reused one gives the fresh one's logits and gradients to the bit."""
+    from judgeopt.files import resolve
+    from judgeopt.judge.compiled import fast_start
+    from judgeopt.planners import loaded
+    from judgeopt.planners.problem import load_problem
+
+    methods = ("amortized", "direct")
+    chosen = loaded.choose_models(load_problem(resolve("problems/paper_sim.toml")), methods)
+    rng = np.random.default_rng(0)
+    with fast_start():
+        loaded._RECALLED_HERE.clear()
+        assert loaded.fast_models(chosen, methods) is not None  # built with torch where no run left its library
+        kept, again = loaded.fast_models(chosen, methods)[0].cjudge, loaded.fast_models(chosen, methods)[0].cjudge
+        assert again is kept and len(loaded._RECALLED_HERE) == 1
+        points = [(0.1 * rng.normal(size=kept.fn.size1_in(0)), 0.1 * rng.normal(size=kept.fn.size1_in(1)))
+                  for _ in range(3)]
+        used = [kept.value_and_gradient(x, e) for x, e in points * 2]
+        loaded._RECALLED_HERE.clear()
+        fresh = loaded.fast_models(chosen, methods)[0].cjudge
+    assert fresh is not kept
+    for (x, e), (z, gx, ge) in zip(points, used[len(points):]):  # the kept one called before, the fresh one not
+        z2, gx2, ge2 = fresh.value_and_gradient(x, e)
+        assert z == z2 and np.array_equal(gx, gx2) and np.array_equal(ge, ge2)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from judgeopt.planners.problem import ProblemError
-from judgeopt.serve.request import prepare, problem_files
+from judgeopt.serve.request import InfeasibleRequest, PreparedRequests, prepare, problem_files
 from judgeopt.serve.schema import PlanRequest
 
 
@@ -31,3 +31,19 @@ def test_a_range_is_planned_over_and_a_value_is_not():
     prepared = prepare(PlanRequest(environment={"y_obj": [0.15, 0.2], "mu": 2.5}), problem_files())
     assert prepared.ranges == {"y_obj": (0.15, 0.2)}
     assert prepared.problem.nominal_env()["mu"] == 2.5
+
+
+def test_a_request_asked_again_is_prepared_once_and_an_error_every_time():
+    kept = PreparedRequests(problem_files(), size=2)
+    ask = PlanRequest(limits={"qdot_max": 0.4}, methods=["direct"]).model_dump()
+    first = kept.get(ask)
+    assert first == prepare(PlanRequest.model_validate(ask), problem_files())
+    assert kept.get({**ask, "timeout_s": 9.0}) is first  # its deadline changes nothing planned
+    assert kept.get({**ask, "limits": {**ask["limits"], "qdot_max": 0.3}}).problem.qdot_max == 0.3
+    assert first.problem_key != kept.get({**ask, "limits": {**ask["limits"], "qdot_max": 0.3}}).problem_key
+    infeasible = {**ask, "limits": {**ask["limits"], "qdot_max": 0.05}}
+    for _ in range(2):
+        with pytest.raises(InfeasibleRequest):
+            kept.get(infeasible)
+    kept.get({**ask, "methods": ["amortized"]})  # the third kept: the least recently asked is dropped
+    assert len(kept.kept) == 2 and kept.get(ask) is not first

@@ -13,7 +13,7 @@ import pytest
 
 from judgeopt.verdict.calibration import (LOGIT_CLIP, Calibrator, CalibrationError, _kth_distance_to_others, _log_loss,
                                           _logit, calibrate_rows, describe, env_fingerprint, for_judge, kth_distance,
-                                          load_calibration_file, save_calibration)
+                                          load_calibration_file, read_calibration_file, save_calibration)
 from judgeopt.verdict.risk import Evidence
 
 
@@ -131,3 +131,14 @@ def test_a_file_of_another_kind_or_with_a_damaged_threshold_table_is_refused(tmp
         path.write_text(json.dumps(doc))
         with pytest.raises(CalibrationError, match="malformed evidence .evidence direct has no threshold table."):
             load_calibration_file(path)
+
+
+def test_a_calibration_file_is_read_again_only_once_it_changed(tmp_path):
+    path = save_calibration(tmp_path / "cal.json", {"s": _calibrator([1.0, 5.0], [2.0, 5.0])})
+    first = read_calibration_file(path)
+    assert read_calibration_file(path) is first and first[0]["s"] == load_calibration_file(path)[0]["s"]
+    save_calibration(path, {"s": _calibrator([1.0, 5.0], [3.0, 5.0]), "t": _calibrator([1.0, 5.0], [2.0, 5.0])})
+    again = read_calibration_file(path)
+    assert again is not first and again[0]["s"].env_high == [3.0, 5.0] and set(again[0]) == {"s", "t"}
+    with pytest.raises(CalibrationError, match="no such calibration file"):
+        read_calibration_file(tmp_path / "gone.json")
