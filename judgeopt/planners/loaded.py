@@ -142,20 +142,20 @@ def fast_models(chosen: ChosenModels, methods: Sequence[str], casadi_backend: st
     backend = choose_backend(casadi_backend or DEFAULT_BACKEND, problem.objective == "target", fmt)
     if backend not in RECALLED:
         return None
-    found = None
+    cj = None
     key = (str(cache_dir()), str(Path(chosen.judge).resolve()), jmeta["weights_sha256"], backend, wanted_threads())
     try:
         if sha256_file(model_paths(chosen.judge)[0]) == jmeta["weights_sha256"]:  # else load_judge says what is wrong
             # the library loaded once per process: a service's worker loads planners for every new environment
             # or limits, and loading and warming it again cost each such request about 14 ms (its answers are the
             # same bit for bit from a fresh and a reused library)
-            found = (_RECALLED_HERE[key],) if key in _RECALLED_HERE else recall(cache_dir(), jmeta["weights_sha256"],
-                                                                                 backend, wanted_threads())
+            if key not in _RECALLED_HERE and (found := recall(cache_dir(), jmeta["weights_sha256"], backend,
+                                                              wanted_threads())) is not None:
+                _RECALLED_HERE[key] = found[0]
+            cj = _RECALLED_HERE.get(key)
     except OSError:
         pass
-    if found is not None:
-        _RECALLED_HERE[key] = found[0]
-    cj = found[0] if found is not None else _build_library(chosen.judge, jmeta, casadi_backend, problem)
+    cj = cj if cj is not None else _build_library(chosen.judge, jmeta, casadi_backend, problem)
     return None if cj is None else (CompiledJudge(cj, fmt), jmeta)
 
 
