@@ -147,8 +147,8 @@ class Evidence:
 
 def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: str, judge_sha256: str | None,
              values: Mapping[str, Any], risk: float = RISK) -> None:
-    """What a plan's result (its info, or its JSON row) carries from the evidence of its planner
-    and judge at `risk`, where its limits and environment (`values`) lie inside the evidence's
+    """What a plan's result (its info, or its JSON row, its calibration already annotated) carries from
+    the evidence of its planner, judge, arm and kind of p (kind_of) at `risk`, where its limits and environment (`values`) lie inside the evidence's
     ranges: raise_floor, likely_at (None: no threshold holds the risk) and risk (the row that sets
     it, described). Where there is no evidence, or the plan lies outside it, only risk's text:
     "likely" then stays p >= 0.5, its risk unchecked. What an earlier annotation wrote is dropped first."""
