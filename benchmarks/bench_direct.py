@@ -6,6 +6,7 @@ is the shipped default. A variant is `key=value,...` over:
   objective   target (least effort and change to the warm start, p >= p_target) | log_p (eq. 3)
   hessian     exact (every term but the judge's) | limited-memory
   backend     the judge's CasADi function (judgeopt.judge.casadi_fn.BACKENDS)
+  last_call   on (default) | off: an l4casadi library's calls all evaluated (judge.compiled.LastCall)
   a_max, jerk_max, fdot_max, joint_limit_scale, bound=NAME:LO:HI@T0:T1 (repeatable): [constraints]
   any Ipopt option by name (mu_init=1e-3, ...)
 
@@ -47,7 +48,7 @@ PROBLEMS = ["problems/paper_sim.toml", "problems/paper_sim_slow.toml", "problems
 #: the earlier solve (eq. 3 with L-BFGS, l4casadi) and each lever moved from it, one at a time
 LEVERS = ["", "objective=log_p,hessian=limited-memory,backend=l4casadi",
           "objective=log_p,hessian=exact,backend=l4casadi", "objective=target,hessian=limited-memory,backend=l4casadi",
-          "backend=l4casadi", "backend=torch", "backend=torch32", "backend=native", "mu_init=1e-3",
+          "last_call=off", "backend=l4casadi", "backend=torch", "backend=torch32", "backend=native", "mu_init=1e-3",
           "mu_strategy=adaptive"]
 
 
@@ -61,9 +62,10 @@ def number(text: str) -> float | int | str:
 
 
 def parse_variant(text: str) -> tuple[dict, str, dict]:
-    """(problem overrides, backend, DirectOptions fields) from `key=value,...`."""
+    """(problem overrides, backend (":off" appended for last_call=off), DirectOptions fields) from `key=value,...`."""
     over, backend, ipopt = {}, "", {}
     opts: dict = {}
+    last_call = "on"
     for item in filter(None, text.split(",")):
         k, _, v = item.partition("=")
         if k == "objective":
@@ -74,13 +76,15 @@ def parse_variant(text: str) -> tuple[dict, str, dict]:
             over.setdefault("bounds", []).append(v)
         elif k == "backend":
             backend = v
+        elif k == "last_call":
+            last_call = v
         elif k == "hessian":
             opts[k] = v
         else:
             ipopt[k] = number(v)
     if ipopt:
         opts["ipopt"] = ipopt
-    return over, backend, opts
+    return over, backend + ("" if last_call == "on" else f":{last_call}"), opts
 
 
 def timed(load: Load, fn):
@@ -110,12 +114,14 @@ def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: boo
     rows = [{"problem": problem.name, "variant": "generator", "start": "-", "time": gen_times, "success": gen_ok}]
     judges: dict[str, object] = {}
     for text in variants:
-        over, backend, opts = parse_variant(text)
+        over, key, opts = parse_variant(text)
+        backend, _, last_call = key.partition(":")
         backend = backend or planners["direct"].cjudge.backend
-        if backend not in judges:
-            judges[backend] = (planners["direct"].cjudge if backend == planners["direct"].cjudge.backend
-                               else build_casadi_judge(planners.judge, backend=backend))
-        direct = DirectPlanner(problem.with_overrides(**over), planners.judge, judges[backend], DirectOptions(**opts))
+        key = f"{backend}:{last_call}"
+        if key not in judges:
+            judges[key] = (planners["direct"].cjudge if key == f"{planners['direct'].cjudge.backend}:"
+                           else build_casadi_judge(planners.judge, backend=backend, last_call=last_call != "off"))
+        direct = DirectPlanner(problem.with_overrides(**over), planners.judge, judges[key], DirectOptions(**opts))
         direct.warm_up(cold=True)  # what a first call pays (kernels, imports): the loop is the steady state
         for start in ("warm", "cold"):
             pairs = [timed(load, lambda: direct.solve(env, guess=g if start == "warm" else None))

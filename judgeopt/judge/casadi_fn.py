@@ -100,7 +100,8 @@ def model_hash(judge: Judge) -> str:
 
 
 def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: str | Path | None = None,
-                       name: str = "judge", precision: str = "float64", noise_tolerant: bool = False) -> CasadiJudge:
+                       name: str = "judge", precision: str = "float64", noise_tolerant: bool = False,
+                       last_call: bool = True) -> CasadiJudge:
     """Build the judge's CasADi Function with `backend` (cached where building is slow).
 
     precision applies to the torch backend: "float64" (default) evaluates a float64 copy of
@@ -112,12 +113,13 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
     it cannot be built (l4casadi or a compiler missing, a trace that fails or disagrees with
     torch), the torch32 callback is returned and one warning line names the fallback; an
     explicitly requested backend raises CasadiBuildError instead.
+    `last_call` (l4casadi's backends): a repeated call answered from memory (compiled.LastCall).
     """
     auto = backend == "auto"
     backend = choose_backend(backend, noise_tolerant, judge.config)
     if auto and backend == "l4casadi32":
         try:
-            return build_casadi_judge(judge, "l4casadi32", cache_dir, name)
+            return build_casadi_judge(judge, "l4casadi32", cache_dir, name, last_call=last_call)
         except CasadiBuildError as exc:
             log.warning("judge backend: l4casadi32 could not be built (%s); falling back to torch32", exc)
             return build_casadi_judge(judge, "torch32", cache_dir, name)
@@ -145,15 +147,18 @@ def build_casadi_judge(judge: Judge, backend: str = DEFAULT_BACKEND, cache_dir: 
         fn, hit, where = _l4casadi32_function(judge, root)
     else:
         fn, hit, where = _l4casadi_function(judge, root)
+    keep: list[Any] = [fn]
     if backend == "compiled":
         x, e = cs.MX.sym("traj", _n_traj(judge)), cs.MX.sym("env", judge.config.n_env)
         logit, prob = fn(x, e)
         wrapped = cs.Function(name, [x, e], [logit, prob], ["traj", "env"], ["logit", "prob"])
     else:
         cfg = judge.config
-        wrapped = wrap_library(fn, backend, judge.normalization(), cfg.horizon, cfg.n_channels, cfg.n_env, name)
+        wrapped, last = wrap_library(fn, backend, judge.normalization(), cfg.horizon, cfg.n_channels, cfg.n_env, name,
+                                     last_call)
+        keep.append(last)
     out = CasadiJudge(wrapped, backend, 0.0, cache_hit=hit, cache_dir=where, horizon=judge.config.horizon,
-                      n_env=judge.config.n_env, _keep=[fn])
+                      n_env=judge.config.n_env, _keep=keep)
     if backend == "l4casadi32":
         try:
             warm(out, judge.normalization(), judge.config.horizon)

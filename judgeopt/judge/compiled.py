@@ -90,7 +90,7 @@ class TrajectoryFormat:
 @dataclass
 class CasadiJudge:
     """A built judge function and how it came to be. Keep this object alive while the
-    Function is used: the torch backend's callbacks live in Python."""
+    Function is used: the torch backend's callbacks and an l4casadi library's LastCall live in Python."""
 
     fn: cs.Function
     backend: str
@@ -135,15 +135,63 @@ def split(z: cs.MX) -> cs.MX:
     return cs.vertcat(z_hi, z - z_hi)
 
 
+class LastCall(cs.Callback):
+    """`fn` that answers a call with the same inputs as its last one from memory, and so does its
+    reverse sweep. Why: Ipopt asks for the constraints at a point, then for their Jacobian at the
+    same point, and CasADi's Jacobian runs the judge's forward pass again before its reverse sweep
+    (the direct solve: 8 value calls and 9 Jacobians, of which 8 at a point just evaluated). The
+    same library on the same bytes gives the same bytes, so answers are unchanged. Keep it alive
+    while a Function that calls it is used (CasadiJudge._keep)."""
+
+    def __init__(self, fn: cs.Function, reversible: bool = True) -> None:
+        cs.Callback.__init__(self)
+        self.fn, self.reversible = fn, reversible
+        self.last: tuple[bytes, list] | None = None  # (the inputs' bytes, the outputs): one tuple, swapped whole
+        self.reverses: list[LastCall] = []
+        self.construct(f"{fn.name()}_last", {})
+
+    def get_n_in(self) -> int:
+        return self.fn.n_in()
+
+    def get_n_out(self) -> int:
+        return self.fn.n_out()
+
+    def get_sparsity_in(self, i: int) -> cs.Sparsity:
+        return self.fn.sparsity_in(i)
+
+    def get_sparsity_out(self, i: int) -> cs.Sparsity:
+        return self.fn.sparsity_out(i)
+
+    def eval(self, args: list) -> list:
+        key = b"".join(np.asarray(a).tobytes() for a in args)
+        last = self.last
+        if last is not None and last[0] == key:
+            return last[1]
+        out = self.fn.call(args)
+        self.last = (key, out)
+        return out
+
+    def has_reverse(self, nadj: int) -> bool:
+        return self.reversible  # a reverse sweep's own derivatives: none (no judge curvature is asked for)
+
+    def get_reverse(self, nadj: int, name: str, inames: list, onames: list, opts: dict) -> cs.Function:
+        reverse = LastCall(self.fn.reverse(nadj), reversible=False)
+        self.reverses.append(reverse)
+        return reverse
+
+
 def wrap_library(fn: cs.Function, backend: str, norm: Mapping[str, Sequence[float]], horizon: int, n_channels: int,
-                 n_env: int, name: str = "judge") -> cs.Function:
+                 n_env: int, name: str = "judge", last_call: bool = True) -> tuple[cs.Function, LastCall | None]:
     """(traj, env) -> (logit, prob) around an l4casadi library `fn` of the normalised inputs: the
-    normalisation in float64 here, split in halves for the float64 backend."""
+    normalisation in float64 here, split in halves for the float64 backend; and the LastCall the
+    function calls `fn` through, to keep alive beside it (`last_call` False: none, every call
+    evaluated, what benchmarks/bench_direct.py's lever last_call=off measures)."""
     x, e = cs.MX.sym("traj", (horizon + 1) * n_channels), cs.MX.sym("env", n_env)
     mean, std = normalization_vectors(norm, horizon)
     z = (cs.vertcat(x, e) - cs.DM(mean)) / cs.DM(std)
-    out = fn((z if backend == "l4casadi32" else split(z)).T)
-    return cs.Function(name, [x, e], [out[0, 0], out[0, 1]], ["traj", "env"], ["logit", "prob"])
+    last = LastCall(fn) if last_call else None
+    out = (last or fn)((z if backend == "l4casadi32" else split(z)).T)
+    return cs.Function(name, [x, e], [out[0, 0], out[0, 1]], ["traj", "env"], ["logit", "prob"]), last
 
 
 def warm(cj: CasadiJudge, norm: Mapping[str, Sequence[float]], horizon: int) -> None:
@@ -348,9 +396,9 @@ def recall(root: Path, weights_sha256: str, backend: str, threads: int) -> tuple
     set_runtime_threads(threads)
     try:
         fn = cs.external(record.function, record.library)
-        wrapped = wrap_library(fn, backend, record.normalization, fmt.horizon, fmt.n_channels, fmt.n_env)
+        wrapped, last = wrap_library(fn, backend, record.normalization, fmt.horizon, fmt.n_channels, fmt.n_env)
         cj = CasadiJudge(wrapped, backend, 0.0, cache_hit=True, cache_dir=Path(record.library).parent,
-                         horizon=fmt.horizon, n_env=fmt.n_env, _keep=[fn])
+                         horizon=fmt.horizon, n_env=fmt.n_env, _keep=[fn, last])
         if backend == "l4casadi32":
             warm(cj, record.normalization, fmt.horizon)
     except Exception as exc:  # a library that no longer loads or runs: the torch path builds it again
