@@ -9,10 +9,12 @@ its level's count is reached. Memory is the server's and its workers' resident s
 
     python benchmarks/bench_serve.py [--levels 1 2 8] [--requests 300 300 400] [--soak 1000]
                                      [--memory-at 500 2000] [--simulate 20] [--receding 10]
-                                     [--per-planner 100 --planners amortized direct cmaes]
+                                     [--per-planner 100 --planners amortized direct cmaes] [--moving 100]
 
 --per-planner N: each of --planners alone, N requests at 1 client and N at the last level, each
 row's throughput against that planner's own one client.
+--moving N: N requests, one client, each with the object somewhere new (as a robot re-planning after
+it moved): a new environment value each time, so what a request pays for one shows.
 
 Prints one row per level side by side (with the CPU time the server and its workers spent per
 request: what bounds the throughput where the cores are shared), then the memory and the issue's
@@ -29,6 +31,7 @@ import subprocess
 import sys
 import threading
 import time
+from typing import Callable
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -75,8 +78,9 @@ class Run:
             if self.total in self.marks:
                 self.memory[self.total] = self.memory_now()
 
-    def level(self, clients: int, requests: int, body: dict) -> dict:
-        """`requests` plans asked by `clients` threads at once: latencies (s), failures, wall time."""
+    def level(self, clients: int, requests: int, body: dict | Callable[[int], dict]) -> dict:
+        """`requests` plans asked by `clients` threads at once (`body`, or body(i) for the i-th request):
+        latencies (s), failures, wall time."""
         latencies, failures, planner, replans, left = [], [], [], [], [requests]
         lock = threading.Lock()
 
@@ -87,9 +91,10 @@ class Run:
                     if left[0] == 0:
                         break
                     left[0] -= 1
+                    ask = body(requests - left[0] - 1) if callable(body) else body
                 t0 = time.perf_counter()
                 try:
-                    answer = c.plan(**body)
+                    answer = c.plan(**ask)
                     dt = time.perf_counter() - t0
                     with lock:
                         latencies.append(dt)
@@ -155,6 +160,8 @@ def main() -> None:
     ap.add_argument("--receding", type=int, default=0, metavar="N",
                     help="also N requests of the receding planner (it re-plans while its plan runs in simulation), one "
                          "client: each re-plan's solve time inside the service against the re-planning period")
+    ap.add_argument("--moving", type=int, default=0, metavar="N",
+                    help="also N requests with the object somewhere new each time (y_obj and mu), one client")
     args = ap.parse_args()
     if len(args.requests) != len(args.levels):
         raise SystemExit("give one --requests count per level")
@@ -172,6 +179,9 @@ def main() -> None:
         for m in args.planners if args.per_planner else ():
             run.level(1, 3, {**body, "methods": [m]})  # its first request loads it
             per += [(m, run.level(c, args.per_planner, {**body, "methods": [m]})) for c in dict.fromkeys((1, args.levels[-1]))]
+        moving = run.level(1, args.moving, lambda i: {**body, "environment": {"y_obj": 0.12 + 0.0011 * (i % 137),
+                                                                          "mu": 1.2 + 0.013 * (i % 131)}}
+                           ) if args.moving else None
         sim = run.level(1, args.simulate, {**body, "simulate": True}) if args.simulate else None
         receding = (run.level(1, args.receding, {**body, "methods": ["receding"], "simulate": True})
                     if args.receding else None)
@@ -186,7 +196,8 @@ def main() -> None:
           f"{'x 1 client':>10} {'planner p50 ms':>14} {'CPU ms/req: server':>18} {'workers':>7}")
     # (group, label, level): "x 1 client" is against the group's first row (the method's own, per planner)
     labelled = ([("levels", "", r) for r in rows] + ([("levels", "soak", soak)] if args.soak else [])
-                + ([("levels", "sim", sim)] if sim else []) + [(f"alone {m}", m, r) for m, r in per])
+                + ([("levels", "sim", sim)] if sim else []) + ([("levels", "moving", moving)] if moving else [])
+                + [(f"alone {m}", m, r) for m, r in per])
     bases: dict[str, float] = {}
     for group, label, r in labelled:
         lat, rate = r["latencies"], len(r["latencies"]) / r["wall"]

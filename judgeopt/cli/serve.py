@@ -63,6 +63,6 @@ def add_serve_command(sub: argparse._SubParsersAction) -> None:
                    help=f"a problem each worker loads and plans once before it is ready; repeatable (default "
                    f"{', '.join(d.preload)})")
     s.add_argument("--cache", type=positive, metavar="N",
-                   help=f"planners each worker keeps loaded, one per problem, limits, environment and planners asked "
-                   f"for, and requests the server and each worker keep checked (default {d.cache})")
+                   help=f"planners each worker keeps loaded, one per problem, limits and planners asked for (any "
+                   f"environment), and requests the server and each worker keep checked (default {d.cache})")
     s.set_defaults(func=cmd_serve)

@@ -397,11 +397,12 @@ class DirectPlanner(Planner):
 
     def with_limits(self, problem: Problem) -> "DirectPlanner":
         """The same compiled solver for a problem that differs only in its position, velocity
-        and force limits and [constraints] (variable bounds and row bounds): no rebuild, so
+        and force limits and [constraints] (variable bounds and row bounds), and its environment: no rebuild, so
         re-planning under relaxed or sampled limits costs one solve (joint limits switched on or
         off: a rebuild, their rows come or go)."""
-        def rest(p: Problem) -> dict:  # what the compiled solver is built for
-            return {k: v for k, v in p.to_dict().items() if k not in BOUND_FIELDS and k != "joint_limit_scale"}
+        def rest(p: Problem) -> dict:  # what the compiled solver is built for (each solve is given its environment)
+            return {k: v for k, v in p.to_dict().items()
+                    if k not in BOUND_FIELDS and k not in ("joint_limit_scale", "environment")}
 
         if rest(problem) != rest(self.problem):
             raise ProblemError("with_limits: the problems differ in more than their limits; build a new DirectPlanner")

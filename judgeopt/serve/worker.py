@@ -14,7 +14,6 @@ request moves on (what a deadline cut short) and ("done", id, status, json bytes
 from __future__ import annotations
 
 import collections
-import dataclasses
 import json
 import math
 import os
@@ -72,8 +71,8 @@ class Planning:
 
     def planners(self, prepared: Any, stage: Callable[[str], None]) -> Any:
         """The planners for a prepared request, loaded as `judgeopt solve` loads them (so the
-        answer is the one solve gives: its notes, its generator) the first time, then reused; a
-        copy whose notes are the request's own."""
+        answer is the one solve gives: its notes, its generator) the first time, then reused, in
+        the request's environment too; a copy whose notes are the request's own."""
         from judgeopt.session import solve as session
         from judgeopt.planners.base import with_uses
         from judgeopt.planners.loaded import Planners
@@ -83,7 +82,7 @@ class Planning:
             methods, fallback = session.methods_for(problem, asked[0], None, self.options.models_dir, prepared.simulate)
         else:
             methods, fallback = with_uses(asked), None
-        key = (prepared.problem_key, methods)
+        key = (prepared.planners_key, methods)
         planners = self.loaded.get(key)
         if planners is None:
             stage(f"loading the planners ({', '.join(methods)}) for problem {problem.name}")
@@ -94,7 +93,7 @@ class Planning:
             while len(self.loaded) > self.options.cache:
                 self.loaded.popitem(last=False)
         self.loaded.move_to_end(key)
-        return dataclasses.replace(planners, notes=list(planners.notes))
+        return planners.in_environment(problem)
 
     def simulator(self, task: str, robot: str) -> Any:
         """The task's simulator with arm `robot`, made once per worker (as solve makes it)."""

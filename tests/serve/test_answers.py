@@ -84,6 +84,19 @@ def test_a_worker_that_planned_others_gives_the_same_answer_again(service, capsy
         assert_same(service.plan(CASES[case][0]).body, local, case)
 
 
+def test_a_new_environment_is_answered_as_solve_answers_it(service, capsys):
+    """A robot re-plans with the object elsewhere: the worker plans with the planners it loaded for
+    these limits (Planners.in_environment), and each answer is the command line's for that environment,
+    the suggestions re-planned under relaxed limits included."""
+    for env in ({"y_obj": 0.13, "mu": 1.4}, {"y_obj": 0.25, "mu": 2.6}):
+        argv = ["--qdot-max", "0.4", "--y-obj", str(env["y_obj"]), "--mu", str(env["mu"])]
+        assert_same(service.plan({**QUICK, "environment": env}).body, solve_json(argv, capsys), str(env))
+    moved = {**SLOW, "environment": {"mu": 2.9, "y_obj": 0.21}}
+    local = solve_json(["--f-max", "12", "--mu", "2.9", "--y-obj", "0.21"], capsys)
+    assert local["suggestions"], "unlikely there, with a relaxation that makes a plan likely"
+    assert_same(service.plan(moved).body, local, "suggestions")
+
+
 def test_the_client_gets_the_http_answer(service):
     import judgeopt
     from judgeopt.serve.client import ServiceError

@@ -40,7 +40,9 @@ def test_a_request_asked_again_is_prepared_once_and_an_error_every_time():
     assert first == prepare(PlanRequest.model_validate(ask), problem_files())
     assert kept.get({**ask, "timeout_s": 9.0}) is first  # its deadline changes nothing planned
     assert kept.get({**ask, "limits": {**ask["limits"], "qdot_max": 0.3}}).problem.qdot_max == 0.3
-    assert first.problem_key != kept.get({**ask, "limits": {**ask["limits"], "qdot_max": 0.3}}).problem_key
+    assert first.planners_key != kept.get({**ask, "limits": {**ask["limits"], "qdot_max": 0.3}}).planners_key
+    moved = kept.get({**ask, "environment": {"y_obj": 0.23}})  # the same planners, in another environment
+    assert moved.problem.nominal_env()["y_obj"] == 0.23 and moved.planners_key == first.planners_key
     infeasible = {**ask, "limits": {**ask["limits"], "qdot_max": 0.05}}
     for _ in range(2):
         with pytest.raises(InfeasibleRequest):
