@@ -76,10 +76,16 @@ def whose(key: str) -> str:
     return key.split("#", 1)[0]
 
 
+def calibration_applies(calibrated: float | None, covers: Any) -> bool:
+    """Whether a plan is judged by its calibrated p: there is one, and the calibration covers the
+    plan (rules.stood_behind stands behind it; kind_of names it)."""
+    return calibrated is not None and bool(covers)
+
+
 def kind_of(row: Mapping[str, Any]) -> str:
     """The kind of p a plan's result (its info, or its JSON row) is judged by: "calibrated" where a
-    calibration covers it (rules.stood_behind), else the judge's own."""
-    return "calibrated" if row.get("calibration_covers") and row.get("calibrated_success") is not None else "judge"
+    calibration covers it, else the judge's own."""
+    return "calibrated" if calibration_applies(row.get("calibrated_success"), row.get("calibration_covers")) else "judge"
 
 
 @dataclass

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping, Sequence
 
-from judgeopt.verdict.risk import HOLD_TOL, capped
+from judgeopt.verdict.risk import HOLD_TOL, calibration_applies, capped
 
 #: below this success probability a plan is "unlikely"; at or above it "likely" where no held-out
 #: evidence sets a higher threshold for the planner (judgeopt.verdict.risk: "risk unchecked")
@@ -47,7 +47,7 @@ def stood_behind(predicted: float | None, calibrated: float | None, covers: bool
     outside the ranges it was fitted on: it extrapolates its success rate, not the physics; and
     it lifts a judge's p below 0.5 no higher than `raise_floor`, the lower bound held-out
     outcomes of such lifted plans give (judgeopt.verdict.risk; none: no lift)."""
-    if calibrated is not None and covers:
+    if calibration_applies(calibrated, covers):
         return capped(predicted, float(calibrated), raise_floor), "calibrated"
     return (None, "") if predicted is None else (float(predicted), "judge")
 

@@ -192,3 +192,14 @@ def test_evidence_stored_before_the_kinds_were_kept_apart_speaks_for_both():
     annotate(row, {evidence_key("direct", "ab" * 32): mixed, evidence_key("direct", "ab" * 32, kind="judge"): own},
              "direct", "ab" * 32, {"y_obj": 0.2})
     assert row["likely_at"] is None
+
+
+def test_the_kind_of_p_is_the_source_the_verdict_stands_behind():
+    """kind_of (which threshold) and rules.stood_behind (which p is printed) name the same kind."""
+    from judgeopt.verdict.risk import kind_of
+    from judgeopt.verdict.rules import stood_behind
+
+    for calibrated in (None, 0.7):
+        for covers in (True, False, None):
+            _, source = stood_behind(0.9, calibrated, covers, 0.0)
+            assert kind_of({"calibrated_success": calibrated, "calibration_covers": covers}) == source
