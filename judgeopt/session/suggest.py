@@ -121,11 +121,13 @@ def _screen(planners: Planners, name: str, value, env: dict[str, float], guess) 
     relaxed = planners.with_limits(**{name: value})
     fastest = next(m for m in relaxed.methods if not spec_of(m).closed_loop)
     r = recommended(relaxed.only(fastest).solve(env, guess=guess))
-    # a screen: the fast planner's p, at the threshold the evidence sets for it, where its soft plan
-    # breaks a limit too (the suggestion itself is planned again by every planner and must be called likely)
+    # a screen: the fast planner's p, at the threshold the evidence sets for it (p >= 0.5 where it sets
+    # none: the amortised plan, never called likely at 2 %, still tells where a plan may be), where its soft
+    # plan breaks a limit too (the suggestion itself is planned again by every planner and must be called likely)
     if r is None:
         return -1.0, False
-    return r.success_probability, verdict_of(r.success_probability, likely_at=r.info.get("likely_at", LIKELY)) == "likely"
+    likely_at = r.info.get("likely_at", LIKELY)
+    return r.success_probability, verdict_of(r.success_probability, likely_at=LIKELY if likely_at is None else likely_at) == "likely"
 
 
 def printable(value: float, direction: int, limit: float, digits: int = 3) -> float:

@@ -156,8 +156,11 @@ def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: s
     """What a plan's result (its info, or its JSON row, its calibration already annotated) carries from
     the evidence of its planner, judge, arm and kind of p (kind_of) at `risk`, where its limits and environment (`values`) lie inside the evidence's
     ranges: raise_floor, likely_at (None: no threshold holds the risk) and risk (the row that sets
-    it, described). Where there is no evidence, or the plan lies outside it, only risk's text:
-    "likely" then stays p >= 0.5, its risk unchecked. What an earlier annotation wrote is dropped first."""
+    it, described). Where there is no evidence, nothing: "likely" stays p >= 0.5, its risk unchecked.
+    Where the plan lies outside the evidence's ranges, its risk is unchecked too, but "likely" is held to
+    the threshold set inside them, and never where none holds there: an edge the evidence missed (the
+    arms' constrained bands at q̇_max 0.30-0.33 m/s: 12 of 32 such plans failed at p >= 0.5) is no safer
+    than the band it borders. What an earlier annotation wrote is dropped first."""
     for key in ("raise_floor", "likely_at", "risk"):
         target.pop(key, None)
     robot = values.get("robot", DEFAULT_ROBOT)
@@ -168,11 +171,18 @@ def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: s
     if ev is None:
         return
     beyond = ev.outside(values)
-    if beyond:
-        target["risk"] = {"risk": risk, "evidence": f"unchecked here: 'likely' is p >= {RAISE_FROM:g}, as the held-out "
-                          f"plans of {method} were drawn inside other ranges ({', '.join(beyond)})"}
-        return
     row = ev.at(risk)
+    if beyond:  # unchecked here, and never held to less than where it was checked
+        where = f"the held-out plans of {ev.subject} were drawn inside other ranges ({', '.join(beyond)})"
+        if row is None:
+            target.update(likely_at=None, risk={"risk": risk, "evidence": f"unchecked here, as {where}; where they "
+                                                f"were drawn no threshold holds a {100 * risk:g} % risk, so it is never "
+                                                "called likely"})
+        else:
+            at = max(RAISE_FROM, row["threshold"])
+            target.update(likely_at=at, risk={"risk": risk, "evidence": f"unchecked here: 'likely' is p >= {at:g}, the "
+                                              f"threshold set where they were drawn, as {where}"})
+        return
     target.update(raise_floor=ev.raise_floor, likely_at=None if row is None else row["threshold"],
                   risk={"risk": risk, "confidence": ev.confidence, **(row or {}), "evidence": ev.describe(risk)})
 

@@ -16,6 +16,9 @@ from judgeopt.cli import main
 from judgeopt.errors import ExitCode
 from judgeopt.files import resolve
 
+#: what a command that made a plan returns, likely or not (exit 4: none likely)
+PLANNED = (ExitCode.OK, ExitCode.UNLIKELY)
+
 DATA = str(resolve("data/test.h5"))
 
 
@@ -151,7 +154,8 @@ def test_a_model_in_a_problem_file_is_found_beside_the_file_from_any_folder(tmp_
     elsewhere.mkdir()
     monkeypatch.chdir(elsewhere)
     assert load_problem("../p.toml").judge == str(tmp_path / "models" / "mine")
-    assert main(["solve", "--problem", "../p.toml", "--no-simulate", "--method", "amortized", "--json"]) == 0
+    # planned (the amortised plan is not called likely at 2 %: exit 4; not this test's subject)
+    assert main(["solve", "--problem", "../p.toml", "--no-simulate", "--method", "amortized", "--json"]) in PLANNED
     assert json.loads(capsys.readouterr().out)["judge"] == str(tmp_path / "models" / "mine")
 
 

@@ -16,6 +16,9 @@ from judgeopt.cli.common import EXIT_MEANINGS, ExitCode
 from judgeopt.cli.main import build_parser
 from judgeopt.files import REPO
 
+#: what a command that made a plan returns, likely or not (exit 4: none likely)
+PLANNED = (ExitCode.OK, ExitCode.UNLIKELY)
+
 
 def subcommands() -> dict[str, argparse.ArgumentParser]:
     sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
@@ -94,7 +97,7 @@ def test_inspect_reads_every_kind_of_file(tmp_path, capsys):
     plan = tmp_path / "plan.json"
     bag = tmp_path / "plan.mcap"
     assert main(["solve", "--no-simulate", "--method", "amortized", "--save-json", str(plan), "--export", str(bag),
-                 "--quiet"]) == 0
+                 "--quiet"]) in PLANNED
     evaluation = tmp_path / "evaluation"
     (evaluation / "partial").mkdir(parents=True)
     rows = [{"method": "direct", "setting_description": "direct, judge j", "simulated_success": s} for s in (1, 0, 1)]

@@ -13,12 +13,15 @@ from judgeopt.cli.common import ExitCode
 from judgeopt.files import REPO
 from judgeopt.planners.problem import load_problem
 
+#: what a command that made a plan returns, likely or not (exit 4: none likely)
+PLANNED = (ExitCode.OK, ExitCode.UNLIKELY)
+
 PROBLEMS = sorted((REPO / "judgeopt" / "tasks").glob("*/problems/*.toml"))
 LIMITS = ("q0", "qdot0", "q_min", "q_max", "qdot_min", "qdot_max", "f_min", "f_max", "end_margin")
 
 
 def test_json_problem_description_states_no_limit_the_option_changed(capsys):
-    assert main(["solve", "--qdot-max", "0.4", "--no-simulate", "--json", "--method", "amortized"]) == 0
+    assert main(["solve", "--qdot-max", "0.4", "--no-simulate", "--json", "--method", "amortized"]) in PLANNED
     problem = json.loads(capsys.readouterr().out)["problem"]
     assert problem["qdot_max"] == 0.4  # the limit in force
     assert problem["name"] == "paper_sim" and problem["description"]

@@ -10,6 +10,9 @@ import pytest
 from judgeopt.cli import main
 from judgeopt.cli.common import ExitCode
 
+#: what a command that made a plan returns, likely or not (exit 4: none likely)
+PLANNED = (ExitCode.OK, ExitCode.UNLIKELY)
+
 KEEP = b"keep me \x00\xff\n"
 
 #: what `solve --out plan.csv --save-json plan.json --export robot.csv --plot plan.png` writes with
@@ -67,7 +70,7 @@ def test_export_refuses_an_existing_output(tmp_path, capsys, suffix):
     src = tmp_path / "src"
     src.mkdir()
     assert main(["solve", "--method", "amortized", "--no-simulate", "--quiet", "--save-json",
-                 str(src / "plan.json")]) == 0
+                 str(src / "plan.json")]) in PLANNED
     out = tmp_path / "out"
     out.mkdir()
     _refused(["export", str(src / "plan.json"), "--out", str(out / f"robot.{suffix}")], out, f"robot.{suffix}",

@@ -90,4 +90,6 @@ def test_evidence_is_counted_per_arm_and_one_arms_never_states_anothers_risk():
     only_ur5 = {k: e for k, e in ev.items() if e.robots == ["ur5"]}
     target = {}
     annotate(target, only_ur5, "direct", "ab" * 32, {"y_obj": 0.2, "qdot_max": 1.0, "robot": "panda"})
-    assert "likely_at" not in target and "robot panda (ur5)" in target["risk"]["evidence"]
+    # unchecked on the Panda, and held to the threshold the UR5's plans set (never below where it was checked)
+    assert target["likely_at"] == max(0.5, only_ur5[evidence_key("direct", "ab" * 32, kind="judge")].at()["threshold"])
+    assert "unchecked here" in target["risk"]["evidence"] and "robot panda (ur5)" in target["risk"]["evidence"]

@@ -74,7 +74,7 @@ def test_the_evidence_speaks_inside_its_ranges_only():
     annotate(inside, evidence, "direct", "ab" * 32, {"qdot_max": 0.5, "f_max": 13.0, "y_obj": 0.2, "mu": 2.0})
     assert inside["likely_at"] == 0.5 and inside["risk"]["n"] == 200
     annotate(beyond, evidence, "direct", "ab" * 32, {"qdot_max": 0.5, "f_max": 13.0, "y_obj": 0.35, "mu": 2.0})
-    assert "likely_at" not in beyond and "y_obj 0.35 (0.1-0.299)" in beyond["risk"]["evidence"]
+    assert beyond["likely_at"] == 0.5 and "y_obj 0.35 (0.1-0.299)" in beyond["risk"]["evidence"]
     other = {"likely_at": 0.7, "raise_floor": 0.4, "risk": {"risk": 0.02}}
     annotate(other, evidence, "direct", "cd" * 32, {"y_obj": 0.2})  # another judge: none, and nothing stale kept
     assert other == {}
@@ -106,8 +106,15 @@ def test_what_a_result_carries_word_for_word():
     assert target["likely_at"] is None and target["risk"]["evidence"] == ev.describe(0.001)
     far = {}
     annotate(far, {evidence_key("direct", "ab" * 32): ev}, "direct", "ab" * 32, {"qdot_max": 0.9}, 0.02)
-    assert far == {"risk": {"risk": 0.02, "evidence": "unchecked here: 'likely' is p >= 0.5, as the held-out plans "
-                                                      "of direct were drawn inside other ranges (qdot_max 0.9 (0.5-0.5))"}}
+    assert far == {"likely_at": 0.95, "risk": {
+        "risk": 0.02, "evidence": "unchecked here: 'likely' is p >= 0.95, the threshold set where they were drawn, as "
+                                  "the held-out plans of direct with the judge's own p were drawn inside other ranges "
+                                  "(qdot_max 0.9 (0.5-0.5))"}}
+    annotate(far, {evidence_key("direct", "ab" * 32): ev}, "direct", "ab" * 32, {"qdot_max": 0.9}, 0.001)
+    assert far == {"likely_at": None, "risk": {
+        "risk": 0.001, "evidence": "unchecked here, as the held-out plans of direct with the judge's own p were drawn "
+                                   "inside other ranges (qdot_max 0.9 (0.5-0.5)); where they were drawn no threshold "
+                                   "holds a 0.1 % risk, so it is never called likely"}}
 
 
 def test_the_edges_of_each_rule():

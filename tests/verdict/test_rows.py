@@ -28,17 +28,26 @@ def test_inside_the_evidence_a_row_is_likely_only_above_its_threshold(p, verdict
     assert rows[0]["verdict"] == verdict and rows[0]["likely_at"] == 0.95
 
 
-def test_a_row_whose_limits_lie_beyond_the_evidence_keeps_p_at_least_a_half_its_risk_unchecked():
-    rows = [_row(0.9, qdot_max=1.0)]  # the evidence was drawn up to 0.9 m/s
+@pytest.mark.parametrize("p, verdict", [(0.96, "likely"), (0.9, "uncertain")])
+def test_a_row_beyond_the_evidence_is_unchecked_and_held_to_the_threshold_set_inside(p, verdict):
+    rows = [_row(p, qdot_max=1.0)]  # the evidence was drawn up to 0.9 m/s
     rescore(rows, {}, EVIDENCE, 0.02)
-    assert rows[0]["verdict"] == "likely" and "likely_at" not in rows[0]
-    assert "qdot_max 1 (0.3-0.9)" in rows[0]["risk"]["evidence"]
+    assert rows[0]["verdict"] == verdict and rows[0]["likely_at"] == 0.95
+    assert "unchecked here" in rows[0]["risk"]["evidence"] and "qdot_max 1 (0.3-0.9)" in rows[0]["risk"]["evidence"]
+
+
+def test_a_row_beyond_the_evidence_is_never_likely_at_a_risk_no_threshold_holds_inside():
+    rows = [_row(0.999, qdot_max=1.0)]
+    rescore(rows, {}, EVIDENCE, 0.001)
+    assert rows[0]["verdict"] == "uncertain" and rows[0]["likely_at"] is None
+    assert "no threshold holds a 0.1 % risk" in rows[0]["risk"]["evidence"]
 
 
 def test_a_row_on_another_arm_is_not_judged_by_the_default_arms_evidence():
     rows = [_row(0.9, robot="kinova")]
     rescore(rows, {}, EVIDENCE, 0.02)
-    assert rows[0]["verdict"] == "likely" and "robot kinova (ur5)" in rows[0]["risk"]["evidence"]
+    assert rows[0]["verdict"] == "uncertain" and "robot kinova (ur5)" in rows[0]["risk"]["evidence"]
+    assert "unchecked here" in rows[0]["risk"]["evidence"]
 
 
 def test_a_risk_no_threshold_holds_calls_nothing_likely():
