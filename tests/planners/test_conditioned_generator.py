@@ -198,7 +198,8 @@ def test_shipped_conditioned_generator_obeys_each_plans_limits(name, judge_name)
 def test_solve_qdot_max_055_amortized_with_the_shipped_models(capsys):
     rc = main(["solve", "--qdot-max", "0.55", "--method", "amortized", "--json", "--no-simulate"])
     res = json.loads(capsys.readouterr().out)
-    # the default judge (problems/paper_sim.toml) is the refined one: its generator is picked
-    assert rc == 0 and res["generator"].endswith("generator_conditioned_refined")
+    # the default judge (problems/paper_sim.toml) is the refined one: its generator is picked; exit 4: the
+    # amortised plan is never called likely at 2 % (its held-out evidence holds no threshold)
+    assert rc in (0, 4) and res["generator"].endswith("generator_conditioned_refined")
     (r,) = res["results"]
     assert max(r["ydot"]) <= 0.55 + SOFT_LIMIT_TOL and r["predicted_success"] > 0.9

@@ -285,9 +285,10 @@ def test_solve_both_methods_in_simulation(capsys):
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and [r["method"] for r in out["results"]] == ["amortized", "direct"]
     assert out["generator"] is not None
-    for r in out["results"]:
+    # the direct plan is called likely; the amortised one never is at 2 % (its evidence holds no threshold)
+    for r, verdict in zip(out["results"], ("uncertain", "likely"), strict=True):
         assert r["simulated_success"] is True, (r["method"], {k: v for k, v in r.items() if k.startswith("sim")})
-        assert max(r["ydot"]) <= 0.4 + 1e-6 and r["verdict"] == "likely"
+        assert max(r["ydot"]) <= 0.4 + 1e-6 and r["verdict"] == verdict
     direct = out["results"][1]
     assert direct["max_constraint_violation"] < 1e-6 and direct["warm_start"] == "generator"
     from judgeopt.judge.casadi_fn import BACKENDS
