@@ -61,11 +61,11 @@ def number(text: str) -> float | int | str:
     return text
 
 
-def parse_variant(text: str) -> tuple[dict, str, dict]:
-    """(problem overrides, backend (":off" appended for last_call=off), DirectOptions fields) from `key=value,...`."""
+def parse_variant(text: str) -> tuple[dict, str, dict, bool]:
+    """(problem overrides, backend, DirectOptions fields, last_call) from `key=value,...`."""
     over, backend, ipopt = {}, "", {}
     opts: dict = {}
-    last_call = "on"
+    last_call = True
     for item in filter(None, text.split(",")):
         k, _, v = item.partition("=")
         if k == "objective":
@@ -77,14 +77,16 @@ def parse_variant(text: str) -> tuple[dict, str, dict]:
         elif k == "backend":
             backend = v
         elif k == "last_call":
-            last_call = v
+            if v not in ("on", "off"):
+                raise SystemExit(f"last_call={v}: give on or off")
+            last_call = v == "on"
         elif k == "hessian":
             opts[k] = v
         else:
             ipopt[k] = number(v)
     if ipopt:
         opts["ipopt"] = ipopt
-    return over, backend + ("" if last_call == "on" else f":{last_call}"), opts
+    return over, backend, opts, last_call
 
 
 def timed(load: Load, fn):
@@ -112,22 +114,20 @@ def run(problem_path: str, variants: list[str], n: int, seed: int, simulate: boo
         gen_times.append(r.solve_time_s)
         gen_ok.append(bool(sim.simulate(r.plan, env).success) if sim else None)
     rows = [{"problem": problem.name, "variant": "generator", "start": "-", "time": gen_times, "success": gen_ok}]
-    judges: dict[str, object] = {}
+    shipped = planners["direct"].cjudge
+    judges: dict[tuple[str, bool], object] = {(shipped.backend, True): shipped}
     for text in variants:
-        over, key, opts = parse_variant(text)
-        backend, _, last_call = key.partition(":")
-        backend = backend or planners["direct"].cjudge.backend
-        key = f"{backend}:{last_call}"
+        over, backend, opts, last_call = parse_variant(text)
+        key = (backend or shipped.backend, last_call)
         if key not in judges:
-            judges[key] = (planners["direct"].cjudge if key == f"{planners['direct'].cjudge.backend}:"
-                           else build_casadi_judge(planners.judge, backend=backend, last_call=last_call != "off"))
+            judges[key] = build_casadi_judge(planners.judge, backend=key[0], last_call=last_call)
         direct = DirectPlanner(problem.with_overrides(**over), planners.judge, judges[key], DirectOptions(**opts))
         direct.warm_up(cold=True)  # what a first call pays (kernels, imports): the loop is the steady state
         for start in ("warm", "cold"):
             pairs = [timed(load, lambda: direct.solve(env, guess=g if start == "warm" else None))
                      for env, g in zip(envs, guesses)]
             out = [a for a, _ in pairs]
-            row = {"problem": problem.name, "variant": text or "default", "backend": backend, "start": start,
+            row = {"problem": problem.name, "variant": text or "default", "backend": key[0], "start": start,
                    "time": [r.solve_time_s for r in out], "iterations": [r.iterations for r in out],
                    "judge_calls": [r.info["judge_calls"] for r in out],
                    "violation": [max(r.residuals.values()) for r in out],

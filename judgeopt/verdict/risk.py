@@ -159,8 +159,8 @@ def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: s
     it, described). Where there is no evidence, nothing: "likely" stays p >= 0.5, its risk unchecked.
     Where the plan lies outside the evidence's ranges, its risk is unchecked too, but "likely" is held to
     the threshold set inside them, and never where none holds there: an edge the evidence missed (the
-    arms' constrained bands at q̇_max 0.30-0.33 m/s: 12 of 32 such plans failed at p >= 0.5) is no safer
-    than the band it borders. What an earlier annotation wrote is dropped first."""
+    arms' constrained bands of seed 818 at q̇_max 0.300-0.315 m/s: 7 of 24 such plans failed at p >= 0.5)
+    is no safer than the band it borders. What an earlier annotation wrote is dropped first."""
     for key in ("raise_floor", "likely_at", "risk"):
         target.pop(key, None)
     robot = values.get("robot", DEFAULT_ROBOT)
@@ -179,9 +179,9 @@ def annotate(target: dict[str, Any], evidence: Mapping[str, Evidence], method: s
                                                 f"were drawn no threshold holds a {100 * risk:g} % risk, so it is never "
                                                 "called likely"})
         else:
-            at = max(RAISE_FROM, row["threshold"])
-            target.update(likely_at=at, risk={"risk": risk, "evidence": f"unchecked here: 'likely' is p >= {at:g}, the "
-                                              f"threshold set where they were drawn, as {where}"})
+            target.update(likely_at=row["threshold"], risk={
+                "risk": risk, "evidence": f"unchecked here: 'likely' is p >= {row['threshold']:g}, the threshold set "
+                                          f"where they were drawn, as {where}"})
         return
     target.update(raise_floor=ev.raise_floor, likely_at=None if row is None else row["threshold"],
                   risk={"risk": risk, "confidence": ev.confidence, **(row or {}), "evidence": ev.describe(risk)})
