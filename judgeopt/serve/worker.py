@@ -78,13 +78,16 @@ class Planning:
         from judgeopt.planners.loaded import Planners
 
         problem, asked = prepared.problem, prepared.methods
-        if len(asked) == 1:
-            methods, fallback = session.methods_for(problem, asked[0], None, self.options.models_dir, prepared.simulate)
-        else:
-            methods, fallback = with_uses(asked), None
-        key = (prepared.planners_key, methods)
+        # by what was asked, so a request asked again skips choosing its models (reading each
+        # generator's metadata: about 1 ms)
+        key = (prepared.planners_key, asked, prepared.simulate)
         planners = self.loaded.get(key)
         if planners is None:
+            if len(asked) == 1:
+                methods, fallback = session.methods_for(problem, asked[0], None, self.options.models_dir,
+                                                        prepared.simulate)
+            else:
+                methods, fallback = with_uses(asked), None
             stage(f"loading the planners ({', '.join(methods)}) for problem {problem.name}")
             planners = Planners.load(problem, methods, models_dir=self.options.models_dir)
             if fallback:
