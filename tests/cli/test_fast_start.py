@@ -119,3 +119,31 @@ def test_a_second_solve_imports_no_torch_and_answers_as_the_first(tmp_path):
         return [[c for c in row if not re.fullmatch(r"[\d.]+ m?s|-+", c)] for row in rows]
 
     assert cells(runs[2].stdout) == cells(runs[3].stdout) and "method     judge  success p" in runs[3].stdout
+
+
+#: the process as the command (main() with no argv), an exit handler of its own, and optionally a
+#: thread still running when the command is done
+AS_COMMAND = """
+import atexit, sys, threading, time
+atexit.register(lambda: print("exit handler ran"))
+if sys.argv[1] == "thread":
+    threading.Thread(target=lambda: (time.sleep(0.5), print("thread finished"))).start()
+sys.argv = ["judgeopt", "solve", "--qdot-max", "0.1", "--no-simulate", "--json"]
+from judgeopt.cli import main
+code = main()
+print("main returned")
+sys.exit(code)
+"""
+
+
+def test_a_solve_ends_its_process_with_its_code_its_output_whole_and_its_exit_handlers_run():
+    """`judgeopt solve` ends its process itself, skipping the interpreter's teardown (libtorch's
+    unload); what a normal exit does first still happens: the exit code is the command's (3, the
+    limits are infeasible), block-buffered output reaches the pipe, exit handlers run. With another
+    thread still running it returns as before, and the normal exit waits for the thread."""
+    alone, thread = (subprocess.run([sys.executable, "-c", AS_COMMAND, case], capture_output=True, text=True)
+                     for case in ("alone", "thread"))
+    assert alone.returncode == 3 and thread.returncode == 3, (alone.stderr[-2000:], thread.stderr[-2000:])
+    answer, _, rest = alone.stdout.rpartition("}")
+    assert json.loads(answer + "}")["status"] == "infeasible" and rest.split() == ["exit", "handler", "ran"]
+    assert thread.stdout.split("\n")[-4:] == ["main returned", "thread finished", "exit handler ran", ""]
