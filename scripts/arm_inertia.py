@@ -1,7 +1,8 @@
-"""How much the arm's inertia adds to the joint torques the planners hold (joint_limits: quasi-static,
-g(q) + J^T F only): the direct solve's plan for an arm, its joint path by IK at each sample, and the inertial
-torque M(q) q'' + C(q, q') q' (Pinocchio's RNEA less gravity, q' and q'' by central differences of the IK path)
-beside the quasi-static torque, per joint, at their worst over the plan.
+"""The joint torques of an arm's direct plan, checked independently of the rows the solve holds
+(joint_limits: g(q) + J^T F + the inertia's m(q) yddot + c(q) ydot^2): the plan as the controller follows
+it (resampled at 1 ms), its joint path by IK at each point, and the torque g(q) + J^T F (quasi-static)
+plus M(q) q'' + C(q, q') q' (Pinocchio's RNEA less gravity, q' and q'' central differences of the IK path),
+per joint, at their worst over the plan.
 
     python scripts/arm_inertia.py so100 --q-min -0.05 --q-max 0.15 --y-obj 0.12 --qdot-max 0.4
 """
@@ -28,17 +29,18 @@ def main() -> None:
     problem = load_problem("paper_sim", **values)
     result = Planners.load(problem, ("direct",)).solve(problem.nominal_env())[0]
     jm = joint_map(problem)
-    arm, dt = jm.arm, problem.dt
+    arm, step = jm.arm, 0.001
     model, data = arm.model, arm.model.createData()
-    y, f = result.plan.values[:, 0], result.plan.values[:, 2]
+    _, fine = result.plan.resample(step)  # the controller's command: cubic Hermite positions, linear force
+    y, f = fine[:, 0], fine[:, 2]
     static, qs = [], []
     for yk, fk in zip(y, f):
         q, _, grav, per_f = joint_kinematics(arm, float(yk), jm.configs[int(np.argmin(np.abs(jm.grid - yk)))])
         qs.append(q)
         static.append(grav + per_f * fk)
     qs, static = np.array(qs), np.array(static)
-    qd = np.gradient(qs, dt, axis=0)
-    qdd = np.gradient(qd, dt, axis=0)
+    qd = np.gradient(qs, step, axis=0)
+    qdd = np.gradient(qd, step, axis=0)
     inertial = np.array([pin.rnea(model, data, qs[k], qd[k], qdd[k]) - pin.computeGeneralizedGravity(model, data, qs[k])
                          for k in range(len(y))])
     print(f"{args.robot}: direct plan, p = {result.predicted_success:.2f}, force {f.min():.2f} to {f.max():.2f} N")

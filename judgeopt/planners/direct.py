@@ -237,7 +237,7 @@ class DirectPlanner(Planner):
             from judgeopt.planners.joint_limits import joint_map
 
             self._joints = joint_map(pr)
-            path.append(self._joints.rows(qs, vs, f))
+            path.append(self._joints.rows(qs, vs, f, a))
         g_path = cs.vertcat(*path)
         logits = [self.cjudge.fn(traj, env[:, k])[0] if not self.members else self._pessimistic(traj, env[:, k])
                   for k in range(self.samples)]

@@ -1,16 +1,20 @@
 """The arm's own limits along a plan (issue 36): joint velocities and joint torques at each sample,
 held within `joint_limit_scale` times the URDF's limits by the direct solve.
 
-Quasi-static, on the task's ArmModel (Task.arm_model): at a sample's position the tool's pose is
-fixed by the task, so the configuration q(y) comes from IK alone, and
+On the task's ArmModel (Task.arm_model): at a sample's position the tool's pose is fixed by the
+task, so the configuration q(y) comes from IK alone, and
 
     joint velocity = J(q)^-1 [axis * ydot; 0]       (the tool moves along the axis, does not turn)
-    joint torque   = g(q) + J(q)^T [force_axis * f; 0]
+    joint torque   = g(q) + J(q)^T [force_axis * f; 0] + m(q) yddot + c(q) ydot^2
 
 J the tool frame's Jacobian (LOCAL_WORLD_ALIGNED), g the gravity torques (tool included), and
 force_axis * f the force the tool exerts on the environment: the simulator's controller commands
 exactly this at rest (its feed-forward xdd -= Lambda^-1 F_cmd gives tau = g - J^T e_z f_z; tested
-against a pressing rollout). The arm's inertia and the contact's moment about the TCP are left out.
+against a pressing rollout). m and c are the arm's inertia as the controller commands it while the
+tool accelerates along the axis (`joint_dynamics`): on the Panda and xArm7 at 1 m/s it is a quarter
+to a third of the base and elbow joints' limits, where gravity puts nothing. The plan's acceleration
+is constant over each step, so at a sample the torque jumps: both sides are held. The contact's
+moment about the TCP is left out.
 
 The direct solve needs these symbolically: for a one-axis task they are tabulated over a fine grid
 of positions covering [q_min, q_max] and interpolated by CasADi B-splines (`JointMap.rows`); the
@@ -58,6 +62,29 @@ def joint_kinematics(arm: ArmModel, position: float, start: np.ndarray | None = 
     return q, rate, gravity, J.T @ wrench
 
 
+def joint_dynamics(arm: ArmModel, q: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """At configuration q, the tool moving along the axis with joint velocities `rate` per unit axis
+    velocity: (torques per unit axis acceleration, torques per unit axis velocity squared), as the
+    controller commands them: M qdd + C(q, qd) qd with qdd = J# (xdd - Jdot qd) and J# = M^-1 J^T Lambda
+    (J^-1 on a six-joint arm; a seventh joint's null space gets no torque; Lambda a pseudo-inverse on
+    an arm of five), i.e.
+    J^T Lambda (xdd - Jdot qd) + C(q, qd) qd, each term scaling with yddot or ydot^2."""
+    import pinocchio as pin
+
+    model = arm.model
+    data = model.createData()
+    J = pin.computeFrameJacobian(model, data, q, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)
+    M = pin.crba(model, data, q)
+    M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
+    # J^T Lambda; pinv: an arm of five joints moves the tool in five directions only (the twist lies among them)
+    lam_JT = J.T @ np.linalg.pinv(J @ np.linalg.solve(M, J.T), rcond=1e-10)
+    pin.forwardKinematics(model, data, q, rate, np.zeros(model.nv))
+    drift = pin.getFrameClassicalAcceleration(model, data, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)  # Jdot qd
+    coriolis = pin.rnea(model, data, q, rate, np.zeros(model.nv)) - pin.computeGeneralizedGravity(model, data, q)
+    per_acc = lam_JT @ np.concatenate([arm.axes[0], np.zeros(3)])
+    return per_acc, coriolis - lam_JT @ np.concatenate([drift.linear, drift.angular])
+
+
 @dataclass
 class JointMap:
     """How a one-axis task's plan maps to its arm's joints: limits (URDF) and tabulated kinematics."""
@@ -71,6 +98,8 @@ class JointMap:
     gravity: np.ndarray  # (G, joints): gravity torques
     force: np.ndarray  # (G, joints): torques per unit pressing force
     arm: ArmModel
+    inertia: np.ndarray | None = None  # (G, joints): torques per unit axis acceleration (None: a massless arm)
+    velocity_product: np.ndarray | None = None  # (G, joints): torques per unit axis velocity squared
     _table: Any = field(default=None, repr=False)
 
     @property
@@ -78,54 +107,72 @@ class JointMap:
         return len(self.names)
 
     def table(self) -> Any:
-        """One CasADi B-spline of position -> [rate, gravity, force] (3 x joints outputs)."""
+        """One CasADi B-spline of position -> [rate, gravity, force, inertia, velocity product] (5 x joints
+        outputs)."""
         if self._table is None:
             import casadi as cs
 
-            values = np.hstack([self.rate, self.gravity, self.force])  # (G, 3 nj), C order: outputs fastest
+            zero = np.zeros_like(self.gravity)
+            values = np.hstack([self.rate, self.gravity, self.force, zero if self.inertia is None else self.inertia,
+                                zero if self.velocity_product is None else self.velocity_product])  # outputs fastest
             self._table = cs.interpolant("joint_table", "bspline", [self.grid], values.ravel(order="C"))
         return self._table
 
-    def rows(self, q: Any, v: Any, f: Any) -> Any:
-        """Constraint rows normalised by the limits, for q, v, f (N + 1, 1) columns: joint velocity
-        / limit for k = 1..N (joints fastest), joint torque / limit for k = 0..N, then both halfway
-        between samples (q, v, f their neighbours' means, as `exact(between=True)` checks them); hold
-        them in [-scale, scale]."""
+    def rows(self, q: Any, v: Any, f: Any, a: Any) -> Any:
+        """Constraint rows normalised by the limits, for q, v, f (N + 1, 1) columns and the steps'
+        accelerations a (N, 1): joint velocity / limit for k = 1..N (joints fastest), joint torque / limit
+        at k = 0..N-1 leaving each sample (step k + 1's acceleration) and at k = 1..N entering it (step
+        k's), then both halfway between samples (q, v, f their neighbours' means, as `exact(between=True)`
+        checks them); hold them in [-scale, scale]."""
         import casadi as cs
 
         def mid(x: Any) -> Any:
             return 0.5 * (x[:-1] + x[1:])
 
         vel, tau = self._rows(q, v, f)
+        leaving, entering = (tau[0][:, :-1] + tau[1][:, :-1] * cs.repmat(a.T, self.n_joints, 1),
+                             tau[0][:, 1:] + tau[1][:, 1:] * cs.repmat(a.T, self.n_joints, 1))
         vel_mid, tau_mid = self._rows(mid(q), mid(v), mid(f))
-        return cs.vertcat(cs.vec(vel[:, 1:]), cs.vec(tau), cs.vec(vel_mid), cs.vec(tau_mid))
+        between = tau_mid[0] + tau_mid[1] * cs.repmat(a.T, self.n_joints, 1)
+        return cs.vertcat(cs.vec(vel[:, 1:]), cs.vec(leaving), cs.vec(entering), cs.vec(vel_mid), cs.vec(between))
 
-    def _rows(self, q: Any, v: Any, f: Any) -> tuple[Any, Any]:
-        """(joint velocity / limit, joint torque / limit), (joints, points) each, at the points q, v, f."""
+    def _rows(self, q: Any, v: Any, f: Any) -> tuple[Any, tuple[Any, Any]]:
+        """(joint velocity / limit, (joint torque but for the inertia's, torque per unit axis acceleration)
+        / limit), (joints, points) each, at the points q, v, f."""
         import casadi as cs
 
         n, nj = q.shape[0], self.n_joints
-        T = self.table().map(n)(cs.reshape(q, 1, n))  # (3 nj, n)
-        rate, grav, force = T[:nj, :], T[nj:2 * nj, :], T[2 * nj:, :]
-        vel = rate * cs.repmat(cs.reshape(v, 1, n), nj, 1) * cs.repmat(cs.DM(1.0 / self.velocity_limit), 1, n)
-        tau = (grav + force * cs.repmat(cs.reshape(f, 1, n), nj, 1)) * cs.repmat(cs.DM(1.0 / self.torque_limit), 1, n)
-        return vel, tau
+        T = self.table().map(n)(cs.reshape(q, 1, n))  # (5 nj, n)
+        rate, grav, force, inertia, product = (T[i * nj:(i + 1) * nj, :] for i in range(5))
+        row = lambda x: cs.repmat(cs.reshape(x, 1, n), nj, 1)  # noqa: E731
+        per_limit = cs.repmat(cs.DM(1.0 / self.torque_limit), 1, n)
+        vel = rate * row(v) * cs.repmat(cs.DM(1.0 / self.velocity_limit), 1, n)
+        tau = (grav + force * row(f) + product * row(v) ** 2) * per_limit
+        return vel, (tau, inertia * per_limit)
 
     def exact(self, plan: Plan, between: bool = False) -> tuple[np.ndarray, np.ndarray]:
         """Joint velocities (N, joints; samples 1..N) and torques (N + 1, joints), from IK at each
-        sample's position (not the tables). `between`: also halfway between samples (position,
-        velocity and force interpolated linearly), where a joint's rate can peak: rows 2N - 1 and 2N + 1."""
+        sample's position (not the tables), each sample's torque the larger in magnitude of the two it
+        takes, entering and leaving it (the acceleration of the step before and after). `between`: also
+        halfway between samples (position, velocity and force interpolated linearly, the step's
+        acceleration), where a joint's rate can peak: rows 2N - 1 and 2N + 1."""
         pos = plan.values[:, _column(plan, "position")]
         vel = plan.values[:, _column(plan, "velocity")]
         force = plan.values[:, _column(plan, "force")]
+        acc = np.diff(vel) / plan.dt
+        # the accelerations each point takes: a sample the steps' on either side, a midpoint its step's
+        sides = [acc[max(k - 1, 0):k + 1] for k in range(len(pos))]
         if between:
             pos, vel, force = (np.insert(x, np.arange(1, len(x)), 0.5 * (x[1:] + x[:-1])) for x in (pos, vel, force))
+            sides = [s for k, here in enumerate(sides) for s in ([here] if k == 0 else [acc[k - 1:k], here])]
         rates, taus = [], []
-        for y, ydot, fk in zip(pos, vel, force):
+        for y, ydot, fk, accs in zip(pos, vel, force, sides):
             start = self.configs[int(np.argmin(np.abs(self.grid - y)))]  # the tabulated branch
-            _, rate, grav, per_f = joint_kinematics(self.arm, float(y), start)
+            q, rate, grav, per_f = joint_kinematics(self.arm, float(y), start)
+            per_acc, per_v2 = joint_dynamics(self.arm, q, rate)
             rates.append(rate * ydot)
-            taus.append(grav + per_f * fk)
+            both = [grav + per_f * fk + per_v2 * ydot ** 2 + per_acc * a for a in accs]
+            taus.append(np.where(np.abs(both[0]) >= np.abs(both[-1]), both[0], both[-1]))
         return np.array(rates)[1:], np.array(taus)
 
     def residuals(self, plan: Plan, scale: float) -> dict[str, float]:
@@ -156,7 +203,7 @@ class JointMap:
         ys = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / FINE_STEP)) + 1))
         T = np.array(self.table().map(len(ys))(ys.reshape(1, -1)))  # (3 nj, n)
         nj = self.n_joints
-        return ys, T[:nj].T, T[nj:2 * nj].T, T[2 * nj:].T
+        return ys, T[:nj].T, T[nj:2 * nj].T, T[2 * nj:3 * nj].T
 
     def force_window(self, lo: float, hi: float, scale: float) -> "ForceWindow":
         """The pressing forces f at which every joint's torque |g + a f| stays within scale x its limit at every
@@ -358,10 +405,12 @@ def tabulate(arm: ArmModel, lo: float, hi: float, seed: float, step: float = GRI
             start = found[i][0]
     idx = sorted(found)
     model = arm.model
+    dynamics = [joint_dynamics(arm, found[i][0], found[i][1]) for i in idx]
     return JointMap(names=arm.joints, velocity_limit=np.array(model.velocityLimit, dtype=float),
                     torque_limit=np.array(model.effortLimit, dtype=float), grid=grid[idx],
                     configs=np.array([found[i][0] for i in idx]), rate=np.array([found[i][1] for i in idx]),
-                    gravity=np.array([found[i][2] for i in idx]), force=np.array([found[i][3] for i in idx]), arm=arm)
+                    gravity=np.array([found[i][2] for i in idx]), force=np.array([found[i][3] for i in idx]), arm=arm,
+                    inertia=np.array([d[0] for d in dynamics]), velocity_product=np.array([d[1] for d in dynamics]))
 
 
 def joint_map(problem: Any) -> JointMap:

@@ -125,21 +125,77 @@ def test_torque_sign_matches_what_the_simulated_arm_applies_while_pressing(jmap:
     assert np.abs(tau - (grav - per_f * f)).max() > 5.0
 
 
+def _torque(jmap: jl.JointMap, y: float, ydot: float, f: float, acc: float) -> np.ndarray:
+    """A point's joint torques, from IK there (not the tables)."""
+    q, rate, grav, per_f = jl.joint_kinematics(jmap.arm, y, _ik(jmap, y))
+    per_acc, per_v2 = jl.joint_dynamics(jmap.arm, q, rate)
+    return grav + per_f * f + per_v2 * ydot ** 2 + per_acc * acc
+
+
 def test_casadi_rows_agree_with_the_exact_check(jmap: jl.JointMap) -> None:
+    """The rows (tables) against IK at each point: velocities at samples 1..N, torques leaving samples
+    0..N-1 and entering 1..N (the steps' accelerations on either side), then both at the midpoints; the
+    check `exact` takes the larger torque of a sample's two sides."""
     plan = _random_plan(np.random.default_rng(3))
     n1 = plan.values.shape[0]
     q, v, f = (cs.MX.sym(name, n1, 1) for name in ("q", "v", "f"))
-    fn = cs.Function("rows", [q, v, f], [jmap.rows(q, v, f)])
-    rows = np.array(fn(plan.y, plan.ydot, plan.f)).ravel()
+    a = cs.MX.sym("a", n1 - 1, 1)
+    acc = np.diff(plan.ydot) / plan.dt
+    fn = cs.Function("rows", [q, v, f, a], [jmap.rows(q, v, f, a)])
+    rows = np.array(fn(plan.y, plan.ydot, plan.f, acc)).ravel()
     qd, tau = jmap.exact(plan)
-    qd_b, tau_b = jmap.exact(plan, between=True)  # samples and midpoints interleaved
-    expected = np.concatenate([(qd / jmap.velocity_limit).ravel(), (tau / jmap.torque_limit).ravel(),
-                               (qd_b[0::2] / jmap.velocity_limit).ravel(), (tau_b[1::2] / jmap.torque_limit).ravel()])
-    assert rows.shape == ((n1 - 1) * 6 + n1 * 6 + 2 * (n1 - 1) * 6,)
+    qd_b, _ = jmap.exact(plan, between=True)  # samples and midpoints interleaved
+    y, yd, fk = plan.y, plan.ydot, plan.f
+    leaving = np.array([_torque(jmap, y[k], yd[k], fk[k], acc[k]) for k in range(n1 - 1)])
+    entering = np.array([_torque(jmap, y[k], yd[k], fk[k], acc[k - 1]) for k in range(1, n1)])
+    mids = np.array([_torque(jmap, 0.5 * (y[k] + y[k + 1]), 0.5 * (yd[k] + yd[k + 1]), 0.5 * (fk[k] + fk[k + 1]),
+                             acc[k]) for k in range(n1 - 1)])
+    expected = np.concatenate([(qd / jmap.velocity_limit).ravel(), (leaving / jmap.torque_limit).ravel(),
+                               (entering / jmap.torque_limit).ravel(), (qd_b[0::2] / jmap.velocity_limit).ravel(),
+                               (mids / jmap.torque_limit).ravel()])
+    assert rows.shape == (5 * (n1 - 1) * 6,)
     np.testing.assert_allclose(rows, expected, rtol=1e-6, atol=1e-6 * np.abs(expected).max())
+    larger = np.where(np.abs(leaving[1:]) >= np.abs(entering[:-1]), leaving[1:], entering[:-1])
+    np.testing.assert_allclose(tau[1:-1], larger, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(tau[[0, -1]], [leaving[0], entering[-1]], rtol=1e-9, atol=1e-9)
     # differentiable: a Jacobian exists and is finite
-    jac = cs.Function("rows_jacobian", [q, v, f], [cs.jacobian(jmap.rows(q, v, f), cs.vertcat(q, v, f))])
-    assert np.all(np.isfinite(np.array(jac(plan.y, plan.ydot, plan.f))))
+    jac = cs.Function("rows_jacobian", [q, v, f, a], [cs.jacobian(jmap.rows(q, v, f, a), cs.vertcat(q, v, f, a))])
+    assert np.all(np.isfinite(np.array(jac(plan.y, plan.ydot, plan.f, acc))))
+
+
+def test_torque_in_motion_is_the_inverse_dynamics_of_the_joints_ik_path(jmap: jl.JointMap) -> None:
+    """A six-joint arm follows the IK path exactly, so its torque while the tool accelerates is Pinocchio's
+    inverse dynamics (rnea) at q(y), with q' and q'' finite differences of IK along y: tau = rnea(q, q' ydot,
+    q' yddot + q'' ydot^2) + J^T f. Independent of joint_dynamics' operational-space form."""
+    model, data = jmap.arm.model, jmap.arm.model.createData()
+    h = 1e-4
+    for y, ydot, yddot, f in ((0.05, 0.8, 4.0, 10.0), (0.3, -0.5, -6.0, 0.0), (-0.1, 1.0, 0.0, 20.0)):
+        qm, q0, qp = (_ik(jmap, y + d) for d in (-h, 0.0, h))
+        d1, d2 = (qp - qm) / (2 * h), (qp - 2 * q0 + qm) / h ** 2
+        _, _, _, per_f = jl.joint_kinematics(jmap.arm, y, q0)
+        expected = pin.rnea(model, data, q0, d1 * ydot, d1 * yddot + d2 * ydot ** 2) + per_f * f
+        np.testing.assert_allclose(_torque(jmap, y, ydot, f, yddot), expected, rtol=1e-5, atol=1e-4)
+    q, rate, grav, _ = jl.joint_kinematics(jmap.arm, 0.1, None)
+    per_acc, _ = jl.joint_dynamics(jmap.arm, q, rate)
+    assert np.abs(per_acc).max() > 1.0  # the inertia is there: N m per m/s^2 on the UR5's base joints
+
+
+def test_a_seven_joint_arm_s_inertial_torque_accelerates_the_tool_along_the_axis_and_turns_no_self_motion() -> None:
+    """On the Panda the torque per unit axis acceleration, applied alone (M qdd = tau), accelerates the
+    tool along the axis at 1 m/s^2 without turning it (J M^-1 tau = [axis; 0]), and its qdd lies in the
+    dynamically consistent range (M qdd = J^T w for some wrench w: no null-space torque)."""
+    problem = load_problem("problems/paper_sim.toml").with_overrides(robot="panda")
+    panda = jl.joint_map(problem)
+    model, data = panda.arm.model, panda.arm.model.createData()
+    q, rate, _, _ = jl.joint_kinematics(panda.arm, 0.1, panda.configs[int(np.argmin(np.abs(panda.grid - 0.1)))])
+    per_acc, _ = jl.joint_dynamics(panda.arm, q, rate)
+    J = pin.computeFrameJacobian(model, data, q, panda.arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)
+    M = pin.crba(model, data, q)
+    M = np.triu(M) + np.triu(M, 1).T
+    np.testing.assert_allclose(J @ np.linalg.solve(M, per_acc), np.concatenate([panda.arm.axes[0], np.zeros(3)]),
+                               atol=1e-8)
+    wrench, *_ = np.linalg.lstsq(J.T, per_acc, rcond=None)
+    np.testing.assert_allclose(J.T @ wrench, per_acc, atol=1e-8)
 
 
 def test_a_fast_sample_violates_joint_velocity_by_the_hand_computed_amount(jmap: jl.JointMap) -> None:
@@ -194,15 +250,19 @@ def _fit(task) -> dict:
 
 def test_the_check_between_samples_reads_the_mean_of_its_neighbours(jmap: jl.JointMap) -> None:
     """The check halfway between samples: every sample still checked, and between samples 2 and 3
-    the torque is gravity + J^T f at the mean position with the mean force (Pinocchio, by hand)."""
+    the torque is gravity + J^T f at the mean position with the mean force (Pinocchio, by hand), and the
+    inertia's at the mean velocity with the step's acceleration."""
     rng = np.random.default_rng(4)
     plan = _random_plan(rng, 6)
     qd, tau = jmap.exact(plan, between=True)
     assert qd.shape == (2 * 6, jmap.n_joints) and tau.shape == (2 * 6 + 1, jmap.n_joints)
     np.testing.assert_allclose(qd[1::2], jmap.exact(plan)[0], atol=1e-9)  # every sample still checked
-    y, f = (plan.values[:, j] for j in (0, 2))
-    _, _, grav, per_f = jl.joint_kinematics(jmap.arm, float(0.5 * (y[2] + y[3])), _ik(jmap, float(y[2])))
-    np.testing.assert_allclose(tau[5], grav + per_f * 0.5 * (f[2] + f[3]), rtol=1e-6, atol=1e-6)
+    y, v, f = (plan.values[:, j] for j in (0, 1, 2))
+    q, rate, grav, per_f = jl.joint_kinematics(jmap.arm, float(0.5 * (y[2] + y[3])), _ik(jmap, float(y[2])))
+    per_acc, per_v2 = jl.joint_dynamics(jmap.arm, q, rate)
+    mean_v, acc = 0.5 * (v[2] + v[3]), (v[3] - v[2]) / plan.dt
+    np.testing.assert_allclose(tau[5], grav + per_f * 0.5 * (f[2] + f[3]) + per_v2 * mean_v ** 2 + per_acc * acc,
+                               rtol=1e-6, atol=1e-6)
 
 
 # --- the tables' arithmetic on a map made by hand (issue 44's mutation run) -------------------------------------
