@@ -41,6 +41,8 @@ GRID_MARGIN = 0.02
 FINE_STEP = 0.0005
 
 _CACHE: dict[tuple, "JointMap"] = {}
+#: plans whose exact check a JointMap keeps
+CHECKED_KEPT = 4
 
 
 def joint_kinematics(arm: ArmModel, position: float, start: np.ndarray | None = None
@@ -49,8 +51,7 @@ def joint_kinematics(arm: ArmModel, position: float, start: np.ndarray | None = 
     torques, torques per unit pressing force), exactly (Pinocchio)."""
     import pinocchio as pin
 
-    model = arm.model
-    data = model.createData()
+    model, data = arm.model, arm.data
     q = arm.ik(np.array([position]), start)
     J = pin.computeFrameJacobian(model, data, q, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)
     twist = np.concatenate([arm.axes[0], np.zeros(3)])
@@ -71,13 +72,14 @@ def joint_dynamics(arm: ArmModel, q: np.ndarray, rate: np.ndarray) -> tuple[np.n
     J^T Lambda (xdd - Jdot qd) + C(q, qd) qd, each term scaling with yddot or ydot^2."""
     import pinocchio as pin
 
-    model = arm.model
-    data = model.createData()
+    model, data = arm.model, arm.data
     J = pin.computeFrameJacobian(model, data, q, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)
     M = pin.crba(model, data, q)
     M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
-    # J^T Lambda; pinv: an arm of five joints moves the tool in five directions only (the twist lies among them)
-    lam_JT = J.T @ np.linalg.pinv(J @ np.linalg.solve(M, J.T), rcond=1e-10)
+    inverse_lambda = J @ np.linalg.solve(M, J.T)  # symmetric, so J^T Lambda = (Lambda J)^T
+    # pinv: an arm of five joints moves the tool in five directions only (the twist lies among them)
+    lam_JT = (np.linalg.solve(inverse_lambda, J) if J.shape[1] >= J.shape[0]
+              else np.linalg.pinv(inverse_lambda, rcond=1e-10) @ J).T
     pin.forwardKinematics(model, data, q, rate, np.zeros(model.nv))
     drift = pin.getFrameClassicalAcceleration(model, data, arm.tool_frame, pin.LOCAL_WORLD_ALIGNED)  # Jdot qd
     coriolis = pin.rnea(model, data, q, rate, np.zeros(model.nv)) - pin.computeGeneralizedGravity(model, data, q)
@@ -101,6 +103,9 @@ class JointMap:
     inertia: np.ndarray | None = None  # (G, joints): torques per unit axis acceleration (None: a massless arm)
     velocity_product: np.ndarray | None = None  # (G, joints): torques per unit axis velocity squared
     _table: Any = field(default=None, repr=False)
+    #: the last few plans' exact checks, by content: a solve checks its warm start and its plan, and the
+    #: verdict each plan's binding joint, each IK at 2N + 1 points (about 20 ms on a 30-step plan)
+    _checked: dict = field(default_factory=dict, repr=False)
 
     @property
     def n_joints(self) -> int:
@@ -156,6 +161,16 @@ class JointMap:
         takes, entering and leaving it (the acceleration of the step before and after). `between`: also
         halfway between samples (position, velocity and force interpolated linearly, the step's
         acceleration), where a joint's rate can peak: rows 2N - 1 and 2N + 1."""
+        key = (plan.dt, between, tuple(c.kind for c in plan.channels), plan.values.shape, plan.values.tobytes())
+        if key not in self._checked:
+            while len(self._checked) >= CHECKED_KEPT:
+                self._checked.pop(next(iter(self._checked)))
+            self._checked[key] = self._exact(plan, between)
+            for array in self._checked[key]:
+                array.flags.writeable = False  # shared by every caller that checks this plan
+        return self._checked[key]
+
+    def _exact(self, plan: Plan, between: bool) -> tuple[np.ndarray, np.ndarray]:
         pos = plan.values[:, _column(plan, "position")]
         vel = plan.values[:, _column(plan, "velocity")]
         force = plan.values[:, _column(plan, "force")]

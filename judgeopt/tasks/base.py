@@ -9,6 +9,8 @@ a new subclass (docs/tasks.md), not a change to them.
 
 from __future__ import annotations
 
+import functools
+
 import math
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
@@ -112,8 +114,8 @@ class Outcome:
 class ArmModel:
     """A task's arm as the planners' joint-limit constraints see it (judgeopt.planners.joint_limits):
     the tool moves along the plan's position axes at a pose the task fixes, and presses along one
-    direction. Quasi-static: the joint velocities follow from the Jacobian, the torques from gravity
-    and the pressing force (the arm's inertia and the contact's moment left out)."""
+    direction: the joint velocities follow from the Jacobian, the torques from gravity, the pressing
+    force and the arm's inertia along the motion (the contact's moment left out)."""
 
     model: Any  # pinocchio.Model of the arm (and its tool), the one the simulator's controller uses
     tool_frame: int  # the frame the plan's positions move (Pinocchio frame id)
@@ -126,6 +128,13 @@ class ArmModel:
     axes: np.ndarray
     #: (3,): the force the tool exerts on the environment per unit of the plan's force channel (world)
     force_axis: np.ndarray
+
+    @functools.cached_property
+    def data(self) -> Any:
+        """One pinocchio.Data for the computations on this arm, made once (making one costs 20 us,
+        as much as a Jacobian): scratch space that each computation fills before it reads, so one
+        process's planners share it; not for threads."""
+        return self.model.createData()
 
 
 def with_setting(settings: Any, key: str, text: str) -> Any:

@@ -526,3 +526,23 @@ def test_a_joint_the_tool_s_motion_does_not_turn_caps_no_speed_and_warns_of_noth
         assert ("shoulder's 2 rad/s caps the tool at 2.86 m/s at y = 0.5 m, so the path takes at least 0.15 s of "
                 "the 0.1 s horizon") in str(e)
         assert still_pan.force_window(0.0, 0.5, 1.0).high_joint == "elbow"
+
+
+def test_a_plan_checked_again_is_not_computed_again_and_a_changed_one_is(jmap: jl.JointMap, monkeypatch) -> None:
+    """The exact check keeps its last plans by content: the same plan again (a solve's warm start, then the
+    verdict's binding joint) runs no IK; one value changed runs it at every point again; what it returns
+    cannot be changed by a caller (it is shared)."""
+    calls = []
+    real = jl.joint_kinematics
+    monkeypatch.setattr(jl, "joint_kinematics", lambda *a, **k: calls.append(1) or real(*a, **k))
+    plan = _random_plan(np.random.default_rng(7), 6)
+    first = jmap.exact(plan, between=True)
+    assert len(calls) == 13
+    again = jmap.exact(scoop_plan(0.05, plan.y.copy(), plan.ydot.copy(), plan.f.copy()), between=True)
+    assert len(calls) == 13 and all(a is b for a, b in zip(first, again))
+    f = plan.f.copy()
+    f[3] += 1.0
+    changed = jmap.exact(scoop_plan(0.05, plan.y, plan.ydot, f), between=True)
+    assert len(calls) == 26 and not np.array_equal(changed[1], first[1])
+    with pytest.raises(ValueError):
+        first[1][0, 0] = 0.0
