@@ -134,11 +134,11 @@ class JointMap:
         def mid(x: Any) -> Any:
             return 0.5 * (x[:-1] + x[1:])
 
-        vel, tau = self._rows(q, v, f)
-        leaving, entering = (tau[0][:, :-1] + tau[1][:, :-1] * cs.repmat(a.T, self.n_joints, 1),
-                             tau[0][:, 1:] + tau[1][:, 1:] * cs.repmat(a.T, self.n_joints, 1))
-        vel_mid, tau_mid = self._rows(mid(q), mid(v), mid(f))
-        between = tau_mid[0] + tau_mid[1] * cs.repmat(a.T, self.n_joints, 1)
+        accel = cs.repmat(a.T, self.n_joints, 1)
+        vel, (tau, per_acc) = self._rows(q, v, f)
+        leaving, entering = tau[:, :-1] + per_acc[:, :-1] * accel, tau[:, 1:] + per_acc[:, 1:] * accel
+        vel_mid, (tau_mid, per_acc_mid) = self._rows(mid(q), mid(v), mid(f))
+        between = tau_mid + per_acc_mid * accel
         return cs.vertcat(cs.vec(vel[:, 1:]), cs.vec(leaving), cs.vec(entering), cs.vec(vel_mid), cs.vec(between))
 
     def _rows(self, q: Any, v: Any, f: Any) -> tuple[Any, tuple[Any, Any]]:
@@ -216,7 +216,7 @@ class JointMap:
         """(positions, rate, gravity, force per unit pressing force), the last three (positions, joints): the
         tables at every FINE_STEP of [lo, hi], both ends included."""
         ys = np.linspace(lo, hi, max(2, int(np.ceil((hi - lo) / FINE_STEP)) + 1))
-        T = np.array(self.table().map(len(ys))(ys.reshape(1, -1)))  # (3 nj, n)
+        T = np.array(self.table().map(len(ys))(ys.reshape(1, -1)))  # (5 nj, n): the first three read here
         nj = self.n_joints
         return ys, T[:nj].T, T[nj:2 * nj].T, T[2 * nj:3 * nj].T
 
@@ -257,7 +257,8 @@ class JointMap:
     def check_path(self, problem: Any, env: dict[str, float], robot: str | None = None) -> None:
         """Raise InfeasibleProblemError where no plan can hold the joints' torques (or speeds) on the positions
         every plan passes through, from the start q0 to the terminal position: the joint, what it needs of its
-        limit, and the value of a limit at which they hold (computed from the tables, not searched)."""
+        limit, and the value of a limit at which they hold (computed from the tables, not searched). At rest:
+        what the arm's inertia adds while it moves is the direct solve's to hold."""
         scale = problem.joint_limit_scale
         q0, end = float(problem.vec("q0")[0]), float(problem.terminal_positions(env)[0])
         lo, hi = (q0, q0) if np.isnan(end) else (min(q0, end), max(q0, end))
