@@ -369,11 +369,9 @@ class Planners:
         """The same planners for `problem`, which may differ from theirs in its environment alone
         (a new object position: no planner is built for one, each plans for the environment it is
         given, and setting ids and generators leave it out); a copy with notes of its own."""
-        if problem is not self.problem:
-            mine, theirs = self.problem.to_dict(), problem.to_dict()
-            if {k for k in mine if mine[k] != theirs[k]} - {"environment"}:
-                raise ProblemError("in_environment: the problems differ in more than their environment; load the "
-                                   "planners for it (Planners.load) or change limits with with_limits")
+        if problem is not self.problem and problem.without_environment() != self.problem.without_environment():
+            raise ProblemError("in_environment: the problems differ in more than their environment; load the "
+                               "planners for it (Planners.load) or change limits with with_limits")
         return dataclasses.replace(self, problem=problem, notes=list(self.notes))
 
     def only(self, method: str) -> "Planners":

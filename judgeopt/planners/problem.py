@@ -598,6 +598,12 @@ class Problem:
             key["end_margin"] = self.end_margin
         return key
 
+    def without_environment(self) -> dict[str, Any]:
+        """to_dict but for the environment: what planners are built for (each plans for whatever
+        environment it is given), so problems equal here are served by the same planners
+        (Planners.in_environment; the service's Prepared.planners_key)."""
+        return {k: v for k, v in self.to_dict().items() if k != "environment"}
+
     def to_dict(self) -> dict[str, Any]:
         """Every field by name, as records and setting ids have held it since before the split
         (the frame left out: where a plan goes, not what is planned; plan JSON records it)."""

@@ -42,8 +42,7 @@ class Prepared:
         """The problem with the request's changes, but for its environment, as canonical JSON: which
         loaded planners serve it (Planners.in_environment: planners are built for a problem and plan
         for any environment, so a new object position loads nothing)."""
-        return json.dumps({k: v for k, v in self.problem.to_dict().items() if k != "environment"},
-                          sort_keys=True, default=str)
+        return json.dumps(self.problem.without_environment(), sort_keys=True, default=str)
 
 
 def problem_files(extra: Sequence[str] = ()) -> dict[str, Path]:
