@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 
 from judgeopt.planners.problem import InfeasibleProblemError, ProblemError
+from judgeopt.recent import Recent
 from judgeopt.tasks import get_task
 from judgeopt.tasks.base import ArmModel
 from judgeopt.trajectory import Plan
@@ -105,7 +106,7 @@ class JointMap:
     _table: Any = field(default=None, repr=False)
     #: the last few plans' exact checks, by content: a solve checks its warm start and its plan, and the
     #: verdict each plan's binding joint, each IK at 2N + 1 points (about 20 ms on a 30-step plan)
-    _checked: dict = field(default_factory=dict, repr=False)
+    _checked: Recent = field(default_factory=lambda: Recent(CHECKED_KEPT), repr=False)
 
     @property
     def n_joints(self) -> int:
@@ -162,13 +163,7 @@ class JointMap:
         halfway between samples (position, velocity and force interpolated linearly, the step's
         acceleration), where a joint's rate can peak: rows 2N - 1 and 2N + 1."""
         key = (plan.dt, between, tuple(c.kind for c in plan.channels), plan.values.shape, plan.values.tobytes())
-        if key not in self._checked:
-            while len(self._checked) >= CHECKED_KEPT:
-                self._checked.pop(next(iter(self._checked)))
-            self._checked[key] = self._exact(plan, between)
-            for array in self._checked[key]:
-                array.flags.writeable = False  # shared by every caller that checks this plan
-        return self._checked[key]
+        return self._checked.get_or_make(key, lambda: self._exact(plan, between))
 
     def _exact(self, plan: Plan, between: bool) -> tuple[np.ndarray, np.ndarray]:
         pos = plan.values[:, _column(plan, "position")]
@@ -188,7 +183,10 @@ class JointMap:
             rates.append(rate * ydot)
             both = [grav + per_f * fk + per_v2 * ydot ** 2 + per_acc * a for a in accs]
             taus.append(np.where(np.abs(both[0]) >= np.abs(both[-1]), both[0], both[-1]))
-        return np.array(rates)[1:], np.array(taus)
+        out = np.array(rates)[1:], np.array(taus)
+        for array in out:
+            array.flags.writeable = False  # kept, and shared by every caller that checks this plan
+        return out
 
     def residuals(self, plan: Plan, scale: float) -> dict[str, float]:
         """Worst |joint velocity| - scale * limit (rad/s) and |joint torque| - scale * limit (N m), >= 0,

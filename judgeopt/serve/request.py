@@ -6,7 +6,6 @@ run in the server before a request takes a worker, and again in the worker (no t
 
 from __future__ import annotations
 
-import collections
 import functools
 import json
 from dataclasses import dataclass
@@ -15,6 +14,7 @@ from typing import Any, Mapping, Sequence
 
 from judgeopt.errors import Infeasible
 from judgeopt.files import PACKAGE
+from judgeopt.recent import Recent
 from judgeopt.planners.problem import Problem, ProblemError, load_problem
 from judgeopt.serve.schema import PlanRequest, as_text
 
@@ -129,16 +129,9 @@ class PreparedRequests:
     `timeout_s` changes nothing planned, so requests that differ in it alone share one."""
 
     def __init__(self, problems: Mapping[str, Path], size: int):
-        self.problems, self.size = problems, size
-        self.kept: collections.OrderedDict[str, Prepared] = collections.OrderedDict()
+        self.problems = problems
+        self.kept = Recent(size)
 
     def get(self, request: Mapping[str, Any]) -> Prepared:
         key = json.dumps({k: v for k, v in request.items() if k != "timeout_s"}, sort_keys=True)
-        prepared = self.kept.get(key)
-        if prepared is None:
-            prepared = prepare(PlanRequest.model_validate(request), self.problems)
-            self.kept[key] = prepared
-            while len(self.kept) > self.size:
-                self.kept.popitem(last=False)
-        self.kept.move_to_end(key)
-        return prepared
+        return self.kept.get_or_make(key, lambda: prepare(PlanRequest.model_validate(request), self.problems))

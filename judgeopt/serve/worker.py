@@ -13,7 +13,6 @@ request moves on (what a deadline cut short) and ("done", id, status, json bytes
 
 from __future__ import annotations
 
-import collections
 import json
 import math
 import os
@@ -62,11 +61,12 @@ class Planning:
     planners asked for, the least recently used dropped beyond `cache`; and its simulators."""
 
     def __init__(self, options: WorkerOptions):
-        self.options = options
-        self.loaded: collections.OrderedDict[tuple, Any] = collections.OrderedDict()
-        self.simulators: dict[tuple[str, str], Any] = {}
+        from judgeopt.recent import Recent
         from judgeopt.serve.request import PreparedRequests
 
+        self.options = options
+        self.loaded = Recent(options.cache)
+        self.simulators: dict[tuple[str, str], Any] = {}
         self.prepared = PreparedRequests(options.problems, options.cache)
 
     def planners(self, prepared: Any, stage: Callable[[str], None]) -> Any:
@@ -78,11 +78,8 @@ class Planning:
         from judgeopt.planners.loaded import Planners
 
         problem, asked = prepared.problem, prepared.methods
-        # by what was asked, so a request asked again skips choosing its models (reading each
-        # generator's metadata: about 1 ms)
-        key = (prepared.planners_key, asked, prepared.simulate)
-        planners = self.loaded.get(key)
-        if planners is None:
+
+        def load() -> Any:
             if len(asked) == 1:
                 methods, fallback = session.methods_for(problem, asked[0], None, self.options.models_dir,
                                                         prepared.simulate)
@@ -92,11 +89,11 @@ class Planning:
             planners = Planners.load(problem, methods, models_dir=self.options.models_dir)
             if fallback:
                 planners.notes.append(fallback)
-            self.loaded[key] = planners
-            while len(self.loaded) > self.options.cache:
-                self.loaded.popitem(last=False)
-        self.loaded.move_to_end(key)
-        return planners.in_environment(problem)
+            return planners
+
+        # kept by what was asked, so a request asked again skips choosing its models (reading each
+        # generator's metadata: about 1 ms)
+        return self.loaded.get_or_make((prepared.planners_key, asked, prepared.simulate), load).in_environment(problem)
 
     def simulator(self, task: str, robot: str) -> Any:
         """The task's simulator with arm `robot`, made once per worker (as solve makes it)."""
