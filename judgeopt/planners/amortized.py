@@ -104,6 +104,10 @@ class GeneratorArrays:
                    get("c_mid", (nc,)) if cond else None, get("c_half", (nc,)) if cond else None)
 
 
+#: where the arm's joints cap the tool's speed below q̇_max, the generator is asked again at most this often
+JOINT_SPEED_TRIES = 3
+
+
 class AmortizedPlanner(Planner):
     """Plans with a trained generator in milliseconds; constraints are soft (penalties in
     training), so the residuals are measured and reported, never assumed to be zero."""
@@ -118,17 +122,18 @@ class AmortizedPlanner(Planner):
         self._e_mid, self._e_half = g.e_mid, g.e_half
         s = OutputScales.of(g.problem)
         self._q_mid, self._q_half = s.q_mid, s.q_half
-        if g.conditioned is not None:  # this problem's limits are the generator's extra inputs
-            lim = limits_of(problem)
-            self._c = (lim - g.c_mid) / g.c_half
-            qmax, fmin, fmax = lim
-            gp = g.problem
-            qdot_min = gp.vec("qdot_min")
-            self._scales = (np.full(g.n_forces, 0.5 * (fmin + fmax)), np.full(g.n_forces, 0.5 * (fmax - fmin)),
-                            (qmax - qdot_min) / (4 * gp.dt), 0.5 * (qmax - qdot_min))
-        else:
-            self._c = np.empty(0)
-            self._scales = (s.f_mid, s.f_half, s.a_scale, s.v_half)
+        self._c, self._scales = self._conditioning(limits_of(problem)) if g.conditioned is not None else \
+            (np.empty(0), (s.f_mid, s.f_half, s.a_scale, s.v_half))
+
+    def _conditioning(self, limits: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """A conditioned generator's extra inputs for these limits (q̇_max, f_min, f_max), and its output
+        scales (force middle and half-range, acceleration scale, velocity half-range)."""
+        g = self.generator
+        qmax, fmin, fmax = limits
+        qdot_min = g.problem.vec("qdot_min")
+        return (limits - g.c_mid) / g.c_half, (np.full(g.n_forces, 0.5 * (fmin + fmax)),
+                                               np.full(g.n_forces, 0.5 * (fmax - fmin)),
+                                               (qmax - qdot_min) / (4 * g.problem.dt), 0.5 * (qmax - qdot_min))
 
     @classmethod
     def build(cls, context: BuildContext) -> "AmortizedPlanner":
@@ -137,15 +142,47 @@ class AmortizedPlanner(Planner):
         return cls(context.generator, context.problem, context.judge)
 
     def plan(self, env: dict[str, float]) -> Plan:
-        """The generator's rollout in numpy float64 (equal to Generator.rollout to float32 rounding)."""
+        """The generator's plan (see `asked`)."""
+        return self.asked(env)[0]
+
+    def asked(self, env: dict[str, float]) -> tuple[Plan, str]:
+        """The generator's plan, and "" or what it was asked instead of the problem's q̇_max. On an arm whose
+        joint limits the problem holds, where the plan moves faster than the arm's joints allow at every
+        position it passes (JointMap.speed_cap), a generator conditioned on q̇_max is asked again at that
+        speed (at most JOINT_SPEED_TRIES times). Why: it knows tool limits only; asked for 1 m/s on the
+        Kinova its plans broke joint 1's speed limit by 2-2.5x, so the direct solve started cold, far from
+        the demonstrations, and 5 of 50 of its plans failed; asked at the joints' speed, none broke it
+        and the direct solve, started from them, succeeded in all 50 (docs/guides/arm.md, "A slow arm")."""
+        plan, qs, vs = self._rollout(env, self._c, self._scales)
+        scale = self.problem.joint_limit_scale
+        if scale is None or self.generator.conditioned is None:
+            return plan, ""
+        from judgeopt.planners.joint_limits import joint_map
+
+        arm = joint_map(self.problem)
+        limits = limits_of(self.problem)
+        speed, lowest, said = float(limits[0]), self.generator.conditioned.qdot_max[0], ""
+        for _ in range(JOINT_SPEED_TRIES):
+            cap, joint, _ = arm.speed_cap(float(qs.min()), float(qs.max()), scale)
+            if vs.max() <= cap or speed <= lowest:
+                break
+            speed = max(min(speed, cap), lowest)
+            plan, qs, vs = self._rollout(env, *self._conditioning(np.array([speed, *limits[1:]])))
+            said = f"asked at q̇_max {speed:.3g} m/s, the most {joint}'s speed limit allows along the plan"
+        return plan, said
+
+    def _rollout(self, env: dict[str, float], c: np.ndarray,
+                 scales: tuple[np.ndarray, ...]) -> tuple[Plan, np.ndarray, np.ndarray]:
+        """The generator's rollout in numpy float64 (equal to Generator.rollout to float32 rounding), with
+        its conditioning `c` and output `scales`; and its positions and velocities."""
         g, pr = self.generator, self.generator.problem
         n, dt = pr.steps, pr.dt
-        f_mid, f_half, a_scale, v_half = self._scales
+        f_mid, f_half, a_scale, v_half = scales
         na, nf = g.n_axes, g.n_forces
         en = (np.array([env[k] for k in pr.env_names]) - self._e_mid) / self._e_half
-        x = np.empty(2 * na + 1 + en.size + self._c.size)
+        x = np.empty(2 * na + 1 + en.size + c.size)
         x[2 * na + 1:2 * na + 1 + en.size] = en
-        x[2 * na + 1 + en.size:] = self._c
+        x[2 * na + 1 + en.size:] = c
         q, v = pr.vec("q0"), pr.vec("qdot0")
         qs, vs, fs = np.empty((n + 1, na)), np.empty((n + 1, na)), np.empty((n + 1, nf))
         for k in range(n + 1):
@@ -157,7 +194,7 @@ class AmortizedPlanner(Planner):
             o = w @ h + b
             qs[k], vs[k], fs[k] = q, v, f_mid + f_half * o[:nf]
             q, v = step(q, v, a_scale * o[nf:], dt)
-        return plan_from_parts(self.problem, qs, vs, fs)
+        return plan_from_parts(self.problem, qs, vs, fs), qs, vs
 
     def warm_start_plan(self, env: dict[str, float], guess: Any = None) -> Plan:
         """The plan `solve` returns, without judging it: a warm start needs only the plan (the
@@ -167,7 +204,7 @@ class AmortizedPlanner(Planner):
     def solve(self, env: dict[str, float], guess: Any = None) -> PlanResult:
         env = self.problem.env_dict(env)
         t0 = time.perf_counter()
-        plan = self.plan(env)
+        plan, asked = self.asked(env)
         elapsed = time.perf_counter() - t0
         prob = None
         if self.judge is not None:
@@ -176,4 +213,4 @@ class AmortizedPlanner(Planner):
             prob = float(self.judge.predict_proba(plan.as_array()[None], judge_env(self.judge, env)[None])[0])
         return PlanResult(self.method, env, plan, prob, "generated", elapsed,
                           constraint_residuals(self.problem, plan, env), iterations=None,
-                          message="one forward rollout (constraints soft)")
+                          message="one forward rollout (constraints soft)" + (f"; {asked}" if asked else ""))

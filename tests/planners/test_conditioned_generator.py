@@ -203,3 +203,28 @@ def test_solve_qdot_max_055_amortized_with_the_shipped_models(capsys):
     assert rc in (0, 4) and res["generator"].endswith("generator_conditioned_refined")
     (r,) = res["results"]
     assert max(r["ydot"]) <= 0.55 + SOFT_LIMIT_TOL and r["predicted_success"] > 0.9
+
+
+@pytest.mark.parametrize("robot, slow", [("kinova", True), ("panda", False)])
+def test_on_an_arm_the_generator_is_asked_at_the_speed_its_joints_allow(robot, slow):
+    """The Kinova's joint 1 caps the tool near 0.35 m/s on the scooping line: the conditioned generator's
+    plan for 1 m/s (the UR5's, whose problem holds no joint limits) breaks it by far; its plan for the
+    Kinova holds every joint's speed and names the joint. On the Panda no joint binds at 1 m/s: its plan
+    is the UR5's, bit for bit."""
+    from judgeopt.planners.joint_limits import joint_map
+
+    generator, _ = load_generator(ROOT / "models" / "generator_conditioned_refined")
+    ur5 = load_problem("paper_sim")  # q̇_max 1 m/s
+    arm = ur5.with_overrides(robot=robot)  # its joint limits held
+    env = {"y_obj": 0.21, "mu": 2.9}
+    free, _ = AmortizedPlanner(generator, ur5).asked(env)
+    held, asked = AmortizedPlanner(generator, arm).asked(env)
+    joints = joint_map(arm)
+    if slow:
+        assert joints.binding(free, 1.0)[2] > 1.5
+        assert joints.binding(held, 1.0)[2] <= 1.0 and joints.residuals(held, 1.0)["joint_velocity"] == 0.0
+        assert asked.startswith("asked at q̇_max 0.3") and joints.binding(free, 1.0)[0] in asked
+        assert constraint_residuals(arm, held, env)["q_end"] < SOFT_LIMIT_TOL  # still ends under the object
+    else:
+        assert asked == "" and joints.binding(free, 1.0)[2] <= 1.0
+        np.testing.assert_array_equal(held.as_array(), free.as_array())
