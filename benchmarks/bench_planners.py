@@ -7,6 +7,7 @@ plan time, mean force. The direct solve is warm-started from the generator, as
 
     python benchmarks/bench_planners.py --n 100          # the issue's targets
     python benchmarks/bench_planners.py --n 10 --jobs 2  # quick look
+    python benchmarks/bench_planners.py --n 20 --robot kinova  # on another arm, its joint limits held
 """
 
 from __future__ import annotations
@@ -43,13 +44,15 @@ def main() -> None:
     ap.add_argument("--jobs", type=int, default=-1)
     ap.add_argument("--problems", nargs="+", default=["problems/paper_sim.toml", "problems/paper_sim_slow.toml"])
     ap.add_argument("--judge", dest="judge_model", help="the judge to plan against (default: each problem's)")
+    ap.add_argument("--robot", help="the arm the plans are made for (its joint limits held) and replayed on "
+                    "(default: each problem's, the UR5)")
     ap.add_argument("--json", help="also write the summary as JSON here")
     args = ap.parse_args()
 
     summary = []
     t0 = time.perf_counter()
     for path in args.problems:
-        problem = load_problem(resolve(path)).with_overrides(judge=args.judge_model)
+        problem = load_problem(resolve(path)).with_overrides(judge=args.judge_model, robot=args.robot)
         envs = problem.sample_env(np.random.default_rng(args.seed), args.n)
         rows = plan_many(problem, envs, n_jobs=args.jobs)
         for method in ("amortized", "direct"):
