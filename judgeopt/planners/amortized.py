@@ -171,7 +171,8 @@ class AmortizedPlanner(Planner):
                 break
             speed = max(min(speed, cap), lowest)
             plan, qs, vs = self._rollout(env, *self._conditioning(np.array([speed, *limits[1:]])))
-            said = f"asked at q̇_max {speed:.3g} m/s, the most {joint}'s speed limit allows along the plan"
+            said = (f"the generator was asked for q̇_max {speed:.3g} m/s, the most {joint}'s speed limit allows "
+                    "along its plan")
         return plan, said
 
     @cached_property
@@ -223,6 +224,15 @@ class AmortizedPlanner(Planner):
             from judgeopt.planners.direct import judge_env
 
             prob = float(self.judge.predict_proba(plan.as_array()[None], judge_env(self.judge, env)[None])[0])
-        return PlanResult(self.method, env, plan, prob, "generated", elapsed,
-                          constraint_residuals(self.problem, plan, env), iterations=None,
-                          message="one forward rollout (constraints soft)" + (f"; {asked}" if asked else ""))
+        result = PlanResult(self.method, env, plan, prob, "generated", elapsed,
+                            constraint_residuals(self.problem, plan, env), iterations=None,
+                            message="one forward rollout (constraints soft)" + (f"; {asked}" if asked else ""))
+        if asked:
+            result.info["generator_asked"] = asked
+        return result
+
+    def details(self, result: PlanResult) -> list[str]:
+        """Planner.details (the binding joint), and the speed the generator was asked at instead of q̇_max."""
+        lines = super().details(result)
+        asked = result.info.get("generator_asked")
+        return [f"{lines[0]}; {asked}", *lines[1:]] if asked and lines else lines
