@@ -156,9 +156,8 @@ class AmortizedPlanner(Planner):
         and the direct solve, started from them, succeeded in all 50 (docs/guides/arm.md, "A slow arm")."""
         plan, qs, vs = self._rollout(env, self._c, self._scales)
         scale = self.problem.joint_limit_scale
-        if scale is None or self.generator.conditioned is None:
-            return plan, ""
-        if vs.max() <= self._joint_speed_everywhere:  # no position in the limits makes a joint bind
+        # no joint limits held, a generator that cannot be asked, or no position within the limits where a joint binds
+        if scale is None or self.generator.conditioned is None or vs.max() <= self._joint_speed_everywhere:
             return plan, ""
         from judgeopt.planners.joint_limits import joint_map
 
