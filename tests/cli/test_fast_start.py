@@ -124,14 +124,16 @@ def test_a_second_solve_imports_no_torch_and_answers_as_the_first(tmp_path):
 #: the process as the command (main() with no argv), an exit handler of its own, and optionally a
 #: thread still running when the command is done
 AS_COMMAND = """
-import atexit, sys, threading, time
+import atexit, sys, threading
 atexit.register(lambda: print("exit handler ran"))
-if sys.argv[1] == "thread":
-    threading.Thread(target=lambda: (time.sleep(0.5), print("thread finished"))).start()
+released = threading.Event()
+if sys.argv[1] == "thread":  # alive until the command has returned, however long it takes
+    threading.Thread(target=lambda: (released.wait(), print("thread finished"))).start()
 sys.argv = ["judgeopt", "solve", "--qdot-max", "0.1", "--no-simulate", "--json"]
 from judgeopt.cli import main
 code = main()
-print("main returned")
+print("main returned", flush=True)
+released.set()
 sys.exit(code)
 """
 
