@@ -234,4 +234,4 @@ class AmortizedPlanner(Planner):
         """Planner.details (the binding joint), and the speed the generator was asked at instead of q̇_max."""
         lines = super().details(result)
         asked = result.info.get("generator_asked")
-        return [f"{lines[0]}; {asked}", *lines[1:]] if asked and lines else lines
+        return [f"{lines[0]}; {asked}", *lines[1:]] if asked else lines  # asked: joint limits held, so a line
