@@ -30,4 +30,8 @@ register(PlannerSpec(
     "measured beside it (benchmarks/bench_sampling.py), not run by default",
     "judgeopt.planners.cmaes_search:CMAESPlanner"))
 
+register(PlannerSpec(
+    "held", "the generator's plan made to hold every hard limit: the nearest plan that does (one Ipopt solve, the "
+    "judge free)", "judgeopt.planners.held:HeldPlanner", warm_start="amortized", models=("judge", "generator")))
+
 register_installed()  # after the built-ins: installed packages' planners (entry-point group judgeopt.planners)

@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 
 #: the planners a fast start serves (fast_models): they only call the judge (no batched torch
 #: forward passes) and take the generator's numpy rollout
-FAST_PLANNERS = frozenset({"amortized", "direct"})
+FAST_PLANNERS = frozenset({"amortized", "direct", "held"})
 
 @dataclass(frozen=True)
 class ChosenModels:
