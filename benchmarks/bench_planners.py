@@ -8,6 +8,7 @@ plan time, mean force. The direct solve is warm-started from the generator, as
     python benchmarks/bench_planners.py --n 100          # the issue's targets
     python benchmarks/bench_planners.py --n 10 --jobs 2  # quick look
     python benchmarks/bench_planners.py --n 20 --robot kinova  # on another arm, its joint limits held
+    python benchmarks/bench_planners.py --n 20 --methods amortized direct held  # another planner beside them
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ def main() -> None:
     ap.add_argument("--judge", dest="judge_model", help="the judge to plan against (default: each problem's)")
     ap.add_argument("--robot", help="the arm the plans are made for (its joint limits held) and replayed on "
                     "(default: each problem's, the UR5)")
+    ap.add_argument("--methods", nargs="+", default=["amortized", "direct"], help="the planners side by side")
     ap.add_argument("--json", help="also write the summary as JSON here")
     args = ap.parse_args()
 
@@ -54,8 +56,8 @@ def main() -> None:
     for path in args.problems:
         problem = load_problem(resolve(path)).with_overrides(judge=args.judge_model, robot=args.robot)
         envs = problem.sample_env(np.random.default_rng(args.seed), args.n)
-        rows = plan_many(problem, envs, n_jobs=args.jobs)
-        for method in ("amortized", "direct"):
+        rows = plan_many(problem, envs, methods=args.methods, n_jobs=args.jobs)
+        for method in args.methods:
             s = summarise(rows, method)
             s["problem"], s["qdot_max"] = problem.name, problem.qdot_max
             summary.append(s)
@@ -70,7 +72,7 @@ def main() -> None:
               f"{s['violation_max']:>11.1e} {t(s['time_median_s']):>9} {t(s['time_p95_s']):>9} "
               f"{s['force_mean']:>10.1f}  {s['status']}")
     by = {(s["qdot_max"], s["method"]): s["force_mean"] for s in summary}
-    for m in ("amortized", "direct"):
+    for m in args.methods:
         if (0.4, m) in by and (1.0, m) in by:
             print(f"{m}: mean force {by[(0.4, m)]:.1f} N under q̇_max = 0.4 vs {by[(1.0, m)]:.1f} N under 1.0 "
                   f"(ratio {by[(0.4, m)] / by[(1.0, m)]:.2f})")
