@@ -586,10 +586,12 @@ class DirectPlanner(Planner):
         x = self._round(x, fixed, self._hard if self._target else None, runs, self._reached(x, fixed))
         held = self._unpack(x)
         ipopt_status = runs[-1].get("return_status", "unknown")
-        return PlanResult(self.method, env, held, self.probability(held.as_array(), env),
-                          STATUS.get(ipopt_status, "failed"), time.perf_counter() - t0,
-                          constraint_residuals(pr, held, env), iterations=int(runs[-1].get("iter_count", 0)),
-                          message=f"Ipopt: {ipopt_status}", info={"ipopt_status": ipopt_status})
+        prob, residuals = self.probability(held.as_array(), env), constraint_residuals(pr, held, env)
+        if pr.p_min is not None:
+            residuals["p_min"] = max(0.0, pr.p_min - prob)
+        return PlanResult(self.method, env, held, prob, STATUS.get(ipopt_status, "failed"), time.perf_counter() - t0,
+                          residuals, iterations=int(runs[-1].get("iter_count", 0)), message=f"Ipopt: {ipopt_status}",
+                          info={"ipopt_status": ipopt_status})
 
     def _met(self, result: PlanResult) -> bool:
         """Whether a solve reached p_target (to its tolerance)."""

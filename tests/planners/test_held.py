@@ -19,6 +19,7 @@ from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.held import HeldPlanner, projection_problem
 from judgeopt.planners.problem import Problem
 from judgeopt.planners.toolkit import min_jerk_plan, plan_from_velocities
+from judgeopt.verdict.rules import breaks
 
 ENV = {"y_obj": 0.2, "mu": 2.0}
 BASE = Problem(judge="models/judge_demos_tcn")  # paper_sim's limits: f in [7.5, 22.5] N, q̇ up to 1 m/s
@@ -102,3 +103,15 @@ def test_held_from_the_registry_holds_the_generators_plan_to_its_limits():
     assert r.max_constraint_violation <= 1e-6
     y0, y1 = gen.plan.values[:, 0], r.plan.values[:, 0]
     assert np.abs(y1 - y0).max() <= gen.residuals["q_end"] + 1e-6
+
+
+def test_a_p_min_out_of_reach_is_a_broken_limit(judge, held):
+    """p_min stays hard in the projection: with the judge at p = sigmoid(5) = 0.9933 for every plan,
+    p_min 0.999 cannot be met, and the held plan reports it broken by the difference."""
+    problem = BASE.with_overrides(p_min=0.999)
+    d = held.direct
+    strict = HeldPlanner(problem, DirectPlanner(projection_problem(problem), d.judge, d.cjudge))
+    r = strict.solve(ENV, guess=min_jerk_plan(BASE, ENV))
+    expected = 0.999 - 1.0 / (1.0 + np.exp(-5.0))
+    assert r.residuals["p_min"] == pytest.approx(expected, abs=1e-9)
+    assert breaks(r.max_constraint_violation)  # the verdict: "breaks a hard limit", whatever its p
