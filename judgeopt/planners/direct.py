@@ -575,15 +575,18 @@ class DirectPlanner(Planner):
     def nearest(self, env: dict[str, float], plan: Plan) -> PlanResult:
         """The plan nearest `plan` (in the solver's scaled variables, plus this problem's smoothing terms)
         that holds every limit, the judge's row free but for p_min: one Ipopt solve, about 7 iterations
-        from a plan that breaks its limits by millimetres (planners/held.py)."""
+        from a plan that breaks its limits by millimetres (planners/held.py). Objective "target" only: under
+        "log_p" there is no distance to a plan in the objective."""
         pr = self.problem
+        if not self._target:
+            raise ProblemError(f"the nearest plan needs objective = target (its distance to a plan), not {pr.objective!r}")
         env = pr.env_dict(env)
         t0 = time.perf_counter()
         if (infeasible := infeasible_result(self.method, pr, env)) is not None:
             return infeasible
         fixed = [judge_env(self.judge, env), pr.terminal_positions(env)[self._fixed]]
         x, runs = self._pack(plan), []
-        x = self._round(x, fixed, self._hard if self._target else None, runs, self._reached(x, fixed))
+        x = self._round(x, fixed, self._hard, runs, self._reached(x, fixed))
         held = self._unpack(x)
         ipopt_status = runs[-1].get("return_status", "unknown")
         prob, residuals = self.probability(held.as_array(), env), constraint_residuals(pr, held, env)

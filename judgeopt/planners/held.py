@@ -1,16 +1,16 @@
 """The paper's generator's plan made to hold every hard limit: the nearest plan that does.
 
-Why: the generator holds its limits softly (penalties in training), so on the edge band 193 of 200
-of its plans broke one, mostly the terminal position by 3 mm (median; 6 mm at worst), and a plan
-that breaks a hard limit is never "likely", though 150 of the 200 succeeded in simulation. The
-direct solve starts from the same plan but raises the judge's p to p_target, and lands where the
-judge is over-confident (136 succeeded). The nearest plan that holds the limits, the judge free,
-keeps the generator's motion: 138 succeeded, 101 of the 144 without a constraint set against the
-generator's own 104 (`judgeopt evaluate band --n 200 --seed 101 --methods amortized direct held`;
-docs/verdict.md, "The generator's plan, held").
+Why: the generator holds its limits softly (penalties in training). On the edge band (seed 101, 500
+settings) 475 of its plans broke one, mostly the terminal position by 3 mm (median; 6 mm at worst),
+and a plan that breaks a hard limit is never "likely", though 368 of them succeeded in simulation.
+The direct solve starts from the same plan but raises the judge's p to p_target, and lands where the
+judge is over-confident. The nearest plan that holds the limits, the judge free, keeps the
+generator's motion: without a constraint set 249 of 354 succeeded, against the generator's 250 and
+the direct solve's 235 (docs/planners.md, "The generator's plan, held to every limit").
 
-"Nearest" is in the direct solve's scaled variables with its smoothing terms switched off: with
-them (the direct solve's objective), 17 of the generator's successes were lost instead of 13.
+"Nearest" is in the direct solve's scaled variables with its smoothing terms switched off: with them
+(the direct solve's own objective, tried once on 200 of those settings), 17 of the generator's
+successes became failures instead of 13, and the judge's p ranked the plans worse.
 """
 
 from __future__ import annotations
