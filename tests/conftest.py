@@ -45,6 +45,19 @@ def min_jerk_plan(y0: float, y1: float, t_move: float, force: float, horizon: in
     return scoop_plan(dt, y, yd, np.full(horizon + 1, force))
 
 
+@pytest.fixture(scope="session")
+def indifferent():
+    """A CasADi judge of the scoop's shape (30 steps, 2 environment values) whose logit is 5 (p = 0.993,
+    over the default p_target) whatever the plan: under it a planner's answer is the limits' alone."""
+    import casadi as cs
+
+    from judgeopt.judge.casadi_fn import CasadiJudge
+
+    traj, env = cs.MX.sym("traj", 31 * 3), cs.MX.sym("env", 2)
+    fn = cs.Function("indifferent", [traj, env], [5.0 + 0 * cs.sum1(traj) + 0 * cs.sum1(env)])
+    return CasadiJudge(fn, "constant", 0.0, horizon=30, n_env=2)
+
+
 def direct_result(predicted, **info):
     """A direct plan (a min-jerk scoop) whose judge said `predicted`, with `info` as its planner set it."""
     from judgeopt.planners.result import PlanResult

@@ -589,12 +589,18 @@ class DirectPlanner(Planner):
         x = self._round(x, fixed, self._hard, runs, self._reached(x, fixed))
         held = self._unpack(x)
         ipopt_status = runs[-1].get("return_status", "unknown")
-        prob, residuals = self.probability(held.as_array(), env), constraint_residuals(pr, held, env)
-        if pr.p_min is not None:
-            residuals["p_min"] = max(0.0, pr.p_min - prob)
+        prob = self.probability(held.as_array(), env)
         return PlanResult(self.method, env, held, prob, STATUS.get(ipopt_status, "failed"), time.perf_counter() - t0,
-                          residuals, iterations=int(runs[-1].get("iter_count", 0)), message=f"Ipopt: {ipopt_status}",
+                          self._residuals(held, env, prob), iterations=int(runs[-1].get("iter_count", 0)), message=f"Ipopt: {ipopt_status}",
                           info={"ipopt_status": ipopt_status})
+
+    def _residuals(self, plan: Plan, env: dict[str, float], p: float) -> dict[str, float]:
+        """How far `plan` breaks each limit and constraint, p_min among them: kept hard in the solve, so a
+        p short of it is reported as a residual like any other."""
+        residuals = constraint_residuals(self.problem, plan, env)
+        if self.problem.p_min is not None:
+            residuals["p_min"] = max(0.0, self.problem.p_min - p)
+        return residuals
 
     def _met(self, result: PlanResult) -> bool:
         """Whether a solve reached p_target (to its tolerance)."""
@@ -643,7 +649,6 @@ class DirectPlanner(Planner):
                 message += (f"; p_target = {pr.p_target:g} not reached in {rounds} round(s) of at most "
                             f"{self._round_iter()} iterations: best p = {p_reached:.3g}")
         plan = self._unpack(x)
-        residuals = constraint_residuals(pr, plan, env)
         traj, je = plan.as_array().ravel(), judge_env(self.judge, env)
         info = {"ipopt_status": ipopt_status, "warm_start": warm, "judge_calls": judge_calls, "rounds": rounds,
                 "judge_backend": self.cjudge.backend}
@@ -661,8 +666,7 @@ class DirectPlanner(Planner):
                     for e in env_set]
             bound = prob = min(each) if self.case == "worst" else float(np.mean(each))
             info.update(env_case=self.case, env_set=env_set, env_set_success=each)
-        if pr.p_min is not None:
-            residuals["p_min"] = max(0.0, pr.p_min - bound)
+        residuals = self._residuals(plan, env, bound)
         if pr.trust_region is not None:
             d = float(self.trust.distance(traj)[0])
             residuals["trust_region"] = max(0.0, d - pr.trust_region)

@@ -8,13 +8,11 @@ checked against the plan's own values, not against the solve's residuals."""
 
 from __future__ import annotations
 
-import casadi as cs
 import numpy as np
 import pytest
 
 from conftest import min_jerk_plan
 from judgeopt.files import REPO
-from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.problem import InfeasibleProblemError, Problem
 from judgeopt.tasks.scoop import scoop_plan
@@ -32,14 +30,6 @@ def judge():
     from judgeopt.judge.store import load_judge
 
     return load_judge(REPO / "models" / "judge_demos_tcn")[0]
-
-
-@pytest.fixture(scope="module")
-def indifferent():
-    """A judge function of the right shape whose logit is 5 (p = 0.993) whatever the plan."""
-    traj, env = cs.MX.sym("traj", 31 * 3), cs.MX.sym("env", 2)
-    fn = cs.Function("indifferent", [traj, env], [5.0 + 0 * cs.sum1(traj) + 0 * cs.sum1(env)])
-    return CasadiJudge(fn, "constant", 0.0, horizon=30, n_env=2)
 
 
 @pytest.fixture(scope="module")

@@ -11,12 +11,10 @@ first multiple of 0.05 s with a_max T² / 4 >= 0.28 m, 1.1 s)."""
 
 from __future__ import annotations
 
-import casadi as cs
 import numpy as np
 import pytest
 
 from judgeopt.files import REPO
-from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.feasible import check, conflict
 from judgeopt.planners.problem import InfeasibleProblemError, Problem
@@ -41,14 +39,6 @@ def cjudge(judge):
     from judgeopt.judge.casadi_fn import build_casadi_judge
 
     return build_casadi_judge(judge)
-
-
-@pytest.fixture(scope="module")
-def indifferent():
-    """A judge function of the right shape whose logit is 5 (p = 0.993 > p_target) whatever the plan."""
-    traj, env = cs.MX.sym("traj", 31 * 3), cs.MX.sym("env", 2)
-    fn = cs.Function("indifferent", [traj, env], [5.0 + 0 * cs.sum1(traj) + 0 * cs.sum1(env)])
-    return CasadiJudge(fn, "constant", 0.0, horizon=30, n_env=2)
 
 
 def solve(problem, judge, cj, guess=None):

@@ -9,12 +9,10 @@ with its motion moved no further than the miss. The real judge's case checks the
 
 from __future__ import annotations
 
-import casadi as cs
 import numpy as np
 import pytest
 
 from judgeopt.files import REPO
-from judgeopt.judge.casadi_fn import CasadiJudge
 from judgeopt.planners.direct import DirectPlanner
 from judgeopt.planners.held import HeldPlanner, projection_problem
 from judgeopt.planners.problem import Problem
@@ -33,12 +31,9 @@ def judge():
 
 
 @pytest.fixture(scope="module")
-def held(judge):
+def held(judge, indifferent):
     """HeldPlanner over a judge whose logit is 5 whatever the plan: the pure projection."""
-    traj, env = cs.MX.sym("traj", 31 * 3), cs.MX.sym("env", 2)
-    fn = cs.Function("indifferent", [traj, env], [5.0 + 0 * cs.sum1(traj) + 0 * cs.sum1(env)])
-    cj = CasadiJudge(fn, "constant", 0.0, horizon=30, n_env=2)
-    return HeldPlanner(BASE, DirectPlanner(projection_problem(BASE), judge, cj))
+    return HeldPlanner(BASE, DirectPlanner(projection_problem(BASE), judge, indifferent))
 
 
 def channels(plan):
