@@ -190,3 +190,15 @@ def test_fit_from_rows_over_limits_has_the_limits_as_inputs_and_the_settings_as_
     assert (cal.setting, cal.env_names) == ("fam", ["y_obj", "mu", "qdot_max", "f_max"])
     assert cal.description == "direct, judge j, over limits"
     assert cal.cover_radius == pytest.approx(3 / 24, rel=1e-9)  # as above, along f_max
+
+
+def test_a_family_is_described_by_its_first_setting_and_rows_without_limits_are_read():
+    """Two settings of one family whose descriptions differ beyond their limits: the first row's names it.
+    Rows that carry no limits (a task without them) fit over the environment alone."""
+    rows = _rows("s1", 25, family="fam") + _rows("s2", 25, family="fam")
+    descriptions = {"s1": "direct, judge j; q̇_max 0.5, f in [7.5, 13]", "s2": "direct, judge k; q̇_max 0.5, f in [7.5, 13]"}
+    (cal,) = fit_from_rows(rows, descriptions, ["y_obj", "mu"], over_limits=True).values()
+    assert cal.description == "direct, judge j, over limits"
+    bare = [{k: v for k, v in r.items() if k != "limits"} for r in rows]
+    (cal,) = fit_from_rows(bare, descriptions, ["y_obj", "mu"], over_limits=True).values()
+    assert cal.env_names == ["y_obj", "mu"] and cal.n == 100

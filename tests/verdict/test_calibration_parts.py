@@ -142,3 +142,25 @@ def test_a_calibration_file_is_read_again_only_once_it_changed(tmp_path):
     assert again is not first and again[0]["s"].env_high == [3.0, 5.0] and set(again[0]) == {"s", "t"}
     with pytest.raises(CalibrationError, match="no such calibration file"):
         read_calibration_file(tmp_path / "gone.json")
+
+
+def test_a_plan_exactly_at_a_range_s_end_plus_its_margin_is_inside():
+    """a over [1, 2] (margin 2 % of the width), b never varied; a huge radius, so the ranges alone decide."""
+    from judgeopt.verdict.calibration import RANGE_MARGIN
+
+    cal = _calibrator([1.0, 5.0], [2.0, 5.0], radius=10.0)
+    tol = 1e-9 + RANGE_MARGIN * (2.0 - 1.0)
+    assert cal.covers([[1.0 - tol, 5.0], [2.0 + tol, 5.0]], [0.5, 0.5]).tolist() == [True, True]
+    assert cal.covers([[2.0 + 1.001 * tol, 5.0]], [0.5]).tolist() == [False]
+
+
+def test_two_calibration_files_are_cached_apart_even_when_their_stamps_agree(tmp_path):
+    """The same size and modification time: each file is still its own (kept by its resolved path)."""
+    import os
+
+    a = save_calibration(tmp_path / "a.json", {"s": _calibrator([1.0, 5.0], [2.0, 5.0])})
+    b = save_calibration(tmp_path / "b.json", {"s": _calibrator([1.0, 5.0], [3.0, 5.0])})
+    assert a.stat().st_size == b.stat().st_size
+    os.utime(b, ns=(a.stat().st_atime_ns, a.stat().st_mtime_ns))
+    assert read_calibration_file(a)[0]["s"].env_high == [2.0, 5.0]
+    assert read_calibration_file(b)[0]["s"].env_high == [3.0, 5.0]

@@ -210,3 +210,36 @@ def test_the_kind_of_p_is_the_source_the_verdict_stands_behind():
         for covers in (True, False, None):
             _, source = stood_behind(0.9, calibrated, covers, 0.0)
             assert kind_of({"calibrated_success": calibrated, "calibration_covers": covers}) == source
+
+
+def test_the_ends_of_each_range_and_the_arms_are_named_in_full():
+    """A value exactly at a range's end plus its margin is inside; an arm the evidence was not replayed
+    on is named with every arm it was; several ranges left are named each."""
+    from judgeopt.verdict.calibration import RANGE_MARGIN
+
+    ev = Evidence("direct", None, 0.95, [{"threshold": 0.9, "n": 200, "failures": 0, "bound": 0.015}], {},
+                  ranges={"f_max": [10.0, 20.0]}, robots=["ur5", "panda"])
+    tol = 1e-9 + RANGE_MARGIN * (20.0 - 10.0)
+    assert ev.outside({"f_max": 10.0 - tol}) == [] and ev.outside({"f_max": 20.0 + tol}) == []
+    assert ev.outside({}) == []  # no arm named: the default arm's, which the evidence was replayed on
+    assert ev.outside({"robot": "xarm7", "f_max": 30.0}) == ["robot xarm7 (ur5, panda)", "f_max 30 (10-20)"]
+    target = {}
+    annotate(target, {evidence_key("direct", None): ev}, "direct", None, {"robot": "xarm7", "f_max": 30.0})
+    assert target["risk"]["evidence"].endswith("inside other ranges (robot xarm7 (ur5, panda), f_max 30 (10-20))")
+
+
+def test_the_lift_floor_is_bounded_at_the_confidence_asked_for():
+    lifted = [_row(0.3, i < 4, calibrated_success=0.9, calibration_covers=True) for i in range(19)]
+    ev = fit_evidence(lifted, confidence=0.8)[evidence_key("direct", "ab" * 32, kind="calibrated")]
+    assert ev.raise_floor == pytest.approx(lower_bound(4, 19, 0.8), abs=1e-6)
+    assert ev.raise_floor > lower_bound(4, 19, 0.95)  # a lower confidence bounds it tighter
+
+
+def test_rows_without_limits_or_a_judge_s_hash_are_counted_each_under_its_own_key():
+    rows = ([{k: v for k, v in _row(0.999, True).items() if k != "limits"}] * 3
+            + [_row(0.999, False, judge_sha256=None)] * 2)
+    evidence = fit_evidence(rows)
+    mine, unknown = evidence[evidence_key("direct", "ab" * 32, kind="judge")], evidence[evidence_key("direct", None, kind="judge")]
+    assert (mine.plans, mine.grid[-1]["failures"], sorted(mine.ranges)) == (3, 0, ["mu", "y_obj"])
+    assert (unknown.plans, unknown.grid[-1]["failures"]) == (2, 2)
+    assert list(evidence) == sorted(evidence)  # stored in the order of their keys

@@ -54,3 +54,10 @@ def test_a_risk_no_threshold_holds_calls_nothing_likely():
     rows = [_row(0.999)]
     rescore(rows, {}, EVIDENCE, 0.001)
     assert rows[0]["verdict"] == "uncertain" and rows[0]["likely_at"] is None
+
+
+def test_a_row_without_limits_or_an_arm_is_the_default_arm_s_and_checked():
+    rows = [{k: v for k, v in _row(0.96).items() if k != "limits"}]
+    rescore(rows, {}, EVIDENCE, 0.02)
+    assert rows[0]["verdict"] == "likely" and rows[0]["risk"]["n"] == 200
+    assert "unchecked" not in rows[0]["risk"]["evidence"]
