@@ -588,5 +588,6 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
     add_plugin_option(c)
     c.add_argument("--over-limits", action="store_true", help="one calibrator per planner and models for all the "
                    "limits in the folders (a sweep's), with q̇ and force limits as inputs beside the environment: it "
-                   "then also covers limits between those it saw")
+                   "then also covers limits between those it saw; plans under constraint sets (a band's) get one of their "
+                   "own over limits and constraint sets")
     c.set_defaults(func=cmd_calibrate)

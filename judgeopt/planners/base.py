@@ -348,17 +348,22 @@ def to_build(methods: tuple[str, ...] | list[str]) -> tuple[str, ...]:
     return tuple(n for n in REGISTRY if n in found)
 
 
-def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False) -> str:
+def setting_id(method: str, problem: Problem, shas: dict[str, str], over_limits: bool = False,
+               over_constraints: bool = False) -> str:
     """What a planner's outcomes depend on besides the environment: the method, the models'
     weights (by hash, not by path) and every limit and solver option. `over_limits`: the same
-    without the limits, the key of a calibrator that takes the limits as inputs."""
+    without the limits, the key of a calibrator that takes the limits as inputs. `over_constraints`:
+    without the limits and the constraint set either, the key of a calibrator fitted on plans drawn
+    under many constraint sets (each set is a setting of its own, too few plans to fit on alone)."""
     # the task is left out: the judge's hash already tells tasks apart (and ids fitted before tasks stay valid)
     skip = {"name", "description", "source", "task", "environment", *SECTIONS["models"]}
-    skip |= set(LIMIT_NAMES) if over_limits else set()
+    skip |= set(LIMIT_NAMES) if over_limits or over_constraints else set()
+    skip |= set(SECTIONS["constraints"]) if over_constraints else set()
     # the options only some planners read (the direct solve's target, the receding planner's period): its own
     spec = REGISTRY.get(method)
     skip |= set(PLANNER_OPTIONS) - set(spec.reads if spec is not None else ())
     p = {k: v for k, v in problem.to_dict().items() if k not in skip}
-    blob = json.dumps({"method": method, "problem": p, "models": shas, "over_limits": over_limits or None},
+    kind = {"over_limits": over_limits or None} | ({"over_constraints": True} if over_constraints else {})
+    blob = json.dumps({"method": method, "problem": p, "models": shas, **kind},
                       sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]

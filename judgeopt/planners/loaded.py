@@ -46,13 +46,15 @@ class ChosenModels:
     generator: Path | None
     shas: dict[str, str]
 
-    def settings(self, methods: Sequence[str], over_limits: bool = False) -> dict[str, str]:
+    def settings(self, methods: Sequence[str], over_limits: bool = False,
+                 over_constraints: bool = False) -> dict[str, str]:
         """method -> calibration.setting_id over the models its entry names (over_limits: the id
-        of the settings that differ from it only in their limits)."""
+        of the settings that differ from it only in their limits; over_constraints: in their limits
+        and constraint sets)."""
         from judgeopt.planners.base import setting_id
 
         return {m: setting_id(m, self.problem, {k: v for k, v in self.shas.items() if k in spec_of(m).models},
-                              over_limits) for m in methods}
+                              over_limits, over_constraints) for m in methods}
 
     def description(self, method: str) -> str:
         """The setting in words: the planner, the models it depends on, the limits."""
@@ -212,6 +214,7 @@ class Planners:
     notes: list[str] = field(default_factory=list)
     settings: dict[str, str] = field(default_factory=dict)  # method -> calibration.setting_id
     families: dict[str, str] = field(default_factory=dict)  # method -> the same without the limits
+    constrained_families: dict[str, str] = field(default_factory=dict)  # ... and the constraint set (if one is set)
     descriptions: dict[str, str] = field(default_factory=dict)
     calibrators: dict = field(default_factory=dict)  # method -> calibration.Calibrator
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
@@ -330,6 +333,9 @@ class Planners:
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
+        # under a constraint set: also the family over every constraint set (a set alone is too few plans)
+        self.constrained_families = (self.chosen.settings(self.methods, over_constraints=True)
+                                     if self.problem.constraints.is_set() else {})
         self.descriptions = {m: self.chosen.description(m) for m in self.methods}
         if not self.calibration_file:
             path = resolve(self.problem.calibration) if self.problem.calibration else None
@@ -341,7 +347,8 @@ class Planners:
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
             self.calibration_file, self.evidence = read_calibration_file(path)  # shared: never changed here
-        found = {m: lookup(self.calibration_file, self.settings[m], self.families[m]) for m in self.methods}
+        found = {m: lookup(self.calibration_file, self.settings[m], self.families[m], self.constrained_families.get(m))
+                 for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
 
     def with_limits(self, **limits: Any) -> "Planners":
@@ -355,7 +362,8 @@ class Planners:
         chosen = choose_models(problem, to_build(self.methods), self.judge_path, self.request.generator,
                                self.request.models_dir)
         out = dataclasses.replace(self, problem=problem, chosen=chosen, notes=list(self.notes), settings={},
-                                  families={}, descriptions={}, calibrators={}, for_sets={})
+                                  families={}, constrained_families={}, descriptions={}, calibrators={},
+                                  for_sets={})
         if chosen.generator is None:
             out.methods = tuple(m for m in self.methods if "generator" not in spec_of(m).needs)
             if not out.methods:
@@ -455,6 +463,8 @@ class Planners:
         limits = {k: getattr(self.problem, k) for k in LIMIT_NAMES}
         r.info.update(setting=self.settings[r.method], family=self.families[r.method], limits=limits,
                       setting_description=self.descriptions[r.method], judge_sha256=self.judge_meta["weights_sha256"])
+        if r.method in self.constrained_families:
+            r.info["constrained_family"] = self.constrained_families[r.method]
         cal = self.calibrators.get(r.method)
         if cal is not None and r.predicted_success is not None:
             r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))

@@ -346,9 +346,11 @@ def inputs(limits: dict[str, Any], env: dict[str, float]) -> dict[str, float]:
     return {**out, **env}
 
 
-def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str | None) -> Calibrator | None:
-    """The calibrator for this exact setting, else one fitted over limits for its family."""
-    return calibrators.get(setting or "") or calibrators.get(family or "")
+def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str | None,
+           constrained_family: str | None = None) -> Calibrator | None:
+    """The calibrator for this exact setting, else one fitted over limits for its family, else (a plan
+    under a constraint set) one fitted over limits and constraint sets."""
+    return calibrators.get(setting or "") or calibrators.get(family or "") or calibrators.get(constrained_family or "")
 
 
 def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator]) -> None:
@@ -359,7 +361,7 @@ def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator]) -> None
     for r in rows:
         for key in ("calibrated_success", "calibration_covers", "calibration_fitted_on_env"):
             r.pop(key, None)
-        cal = lookup(calibrators, r.get("setting"), r.get("family"))
+        cal = lookup(calibrators, r.get("setting"), r.get("family"), r.get("constrained_family"))
         if cal is None or r.get("predicted_success") is None:
             continue
         values = inputs(r.get("limits", {}), r["environment"])
@@ -382,12 +384,13 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
                   sources: list[str] | None = None, over_limits: bool = False) -> dict[str, Calibrator]:
     """One calibrator per setting that has at least `min_n` replayed outcomes. `over_limits`:
     one per family of settings that differ only in their limits (rows of a sweep, or of
-    evaluations under many limits), with the limits as inputs beside the environment."""
-    key = "family" if over_limits else "setting"
+    evaluations under many limits), with the limits as inputs beside the environment; plans under a
+    constraint set in one per family over limits and constraint sets (a band draws a set per setting)."""
     by: dict[str, list[dict]] = {}
     for r in rows:
-        if r.get(key) and r.get("predicted_success") is not None and r.get("simulated_success") is not None:
-            by.setdefault(r[key], []).append(r)
+        key = r.get("constrained_family") or r.get("family") if over_limits else r.get("setting")
+        if key and r.get("predicted_success") is not None and r.get("simulated_success") is not None:
+            by.setdefault(key, []).append(r)
     out = {}
     for setting, rs in by.items():
         if len(rs) < min_n:
@@ -397,7 +400,8 @@ def fit_from_rows(rows: list[dict], descriptions: dict[str, str], env_names: lis
         values = np.array([[inputs(r.get("limits", {}), r["environment"])[k] for k in names] for r in rs])
         description = descriptions.get(first["setting"], first["method"])
         if over_limits:  # the family's description: without the first row's limits
-            description = re.sub(r"[,;] q̇_max [^,]*, f in \[[^\]]*\]", "", description) + ", over limits"
+            description = re.sub(r"[,;] q̇_max [^,]*, f in \[[^\]]*\]", "", description) + (
+                ", over limits and constraint sets" if first.get("constrained_family") else ", over limits")
         judges = {r.get("judge_sha256") for r in rs}
         out[setting] = fit(setting, first["method"], description, names,
                            values, np.array([r["predicted_success"] for r in rs]),

@@ -199,3 +199,45 @@ def test_a_calibration_over_limits_learns_from_the_limits_and_covers_limits_betw
            "environment": {"y_obj": 0.2, "mu": 2.0}, "predicted_success": 0.99}
     calibrate_rows([row], fitted)
     assert row["calibrated_success"] == pytest.approx(low["calibrated_success"])
+
+
+def test_plans_under_constraint_sets_share_one_calibrator_over_limits_and_sets(tmp_path):
+    """A band draws a constraint set per setting: each set alone is one plan. Their family over limits
+    and constraint sets is one key, apart from the unconstrained family (whose id is as before), and a
+    calibrator fitted on it is what a row or a planner under any constraint set reads."""
+    from judgeopt.planners.loaded import Planners
+    from judgeopt.verdict.calibration import lookup
+
+    p = load_problem(resolve("problems/paper_sim.toml"))
+    a = p.with_overrides(f_max=12.0, fdot_max=60.0)
+    b = p.with_overrides(f_max=14.0, a_max=3.0, bounds=["f:0:14.1@0:0.3"])
+    over = setting_id("direct", a, {"judge": "j"}, over_constraints=True)
+    assert setting_id("direct", b, {"judge": "j"}, over_constraints=True) == over
+    assert setting_id("direct", a, {"judge": "j"}, over_limits=True) != setting_id("direct", b, {"judge": "j"}, over_limits=True)
+    assert over not in {setting_id("direct", p, {"judge": "j"}, over_limits=True), setting_id("direct", p, {"judge": "j"})}
+    rng = np.random.default_rng(0)
+    rows = [{"setting": f"s{i}", "family": f"f{i}", "constrained_family": over, "method": "direct",
+             "limits": {"qdot_max": 0.5, "f_max": rng.uniform(11, 15)},
+             "environment": {"y_obj": rng.uniform(0.1, 0.28), "mu": rng.uniform(1, 3)},
+             "predicted_success": 0.99, "simulated_success": bool(rng.random() < 0.8)} for i in range(60)]
+    plain = [{**r, "setting": "u", "family": "fam"} for r in rows]
+    for r in plain:
+        del r["constrained_family"]
+    fitted = fit_from_rows(rows + plain, {"s0": "direct, judge j; q̇_max 0.5, f in [7.5, 12]"}, ["y_obj", "mu"],
+                           over_limits=True)
+    assert set(fitted) == {over, "fam"} and fitted[over].n == 60
+    assert fitted[over].description == "direct, judge j, over limits and constraint sets"
+    assert fit_from_rows(rows, {}, ["y_obj", "mu"]) == {}  # each set alone: one plan, too few
+    assert lookup(fitted, "s1", "f1", over) is fitted[over] and lookup(fitted, "s1", "fam", over) is fitted["fam"]
+    assert lookup(fitted, "s1", "f1") is None
+    # a planner under a constraint set carries the key and reads the calibrator fitted on it
+    planners = Planners.load(a.with_overrides(calibration="models/calibration_default.json"), ("amortized",))
+    key = planners.constrained_families["amortized"]
+    assert Planners.load(p, ("amortized",)).constrained_families == {}
+    assert planners.with_limits(f_max=13.0).constrained_families == {"amortized": key}
+    mine = fit_from_rows([{**r, "method": "amortized", "constrained_family": key} for r in rows], {}, ["y_obj", "mu"],
+                         over_limits=True)
+    save_calibration(tmp_path / "cal.json", mine)
+    (r,) = Planners.load(a.with_overrides(calibration=str(tmp_path / "cal.json")), ("amortized",)).solve(
+        {"y_obj": 0.2, "mu": 2.0})
+    assert r.info["constrained_family"] == key and 0.0 < r.info["calibrated_success"] < 1.0
