@@ -70,7 +70,10 @@ def main() -> None:
     if args.fit:
         fitted = plans(args.fit)
         names = list(inputs(fitted[0].get("limits", {}), fitted[0]["environment"]))
-        values = lambda rs: np.array([[inputs(r.get("limits", {}), r["environment"])[k] for k in names] for r in rs])  # noqa: E731
+
+        def values(rs: list[dict]) -> np.ndarray:
+            return np.array([[inputs(r.get("limits", {}), r["environment"])[k] for k in names] for r in rs])
+
         cal = fit("cross-fit", args.method, "cross-fit", names, values(fitted),
                   np.array([r["predicted_success"] for r in fitted]), np.array([float(r["simulated_success"]) for r in fitted]))
         scores[f"calibrated, fitted on {len(fitted)} plans of {' '.join(args.fit)}"] = cal.predict(values(rows), judge)
