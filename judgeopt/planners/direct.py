@@ -591,8 +591,8 @@ class DirectPlanner(Planner):
         ipopt_status = runs[-1].get("return_status", "unknown")
         prob = self.probability(held.as_array(), env)
         return PlanResult(self.method, env, held, prob, STATUS.get(ipopt_status, "failed"), time.perf_counter() - t0,
-                          self._residuals(held, env, prob), iterations=int(runs[-1].get("iter_count", 0)), message=f"Ipopt: {ipopt_status}",
-                          info={"ipopt_status": ipopt_status})
+                          self._residuals(held, env, prob), iterations=int(runs[-1].get("iter_count", 0)),
+                          message=f"Ipopt: {ipopt_status}", info={"ipopt_status": ipopt_status})
 
     def _residuals(self, plan: Plan, env: dict[str, float], p: float) -> dict[str, float]:
         """How far `plan` breaks each limit and constraint, p_min among them: kept hard in the solve, so a
