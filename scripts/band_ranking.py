@@ -20,7 +20,7 @@ import argparse
 
 import numpy as np
 
-from judgeopt.evaluate.stored import read_rows
+from judgeopt.evaluate.stored import StoredRowsError, read_rows
 
 
 def ranked_successes(score: np.ndarray, success: np.ndarray, failures: int = 3) -> list[int]:
@@ -49,7 +49,11 @@ def main() -> None:
     from judgeopt.verdict.risk import HOLD_TOL, capped
 
     def plans(folders: list[str]) -> list[dict]:
-        rows = [r for r in read_rows(folders)
+        try:
+            stored = read_rows(folders)
+        except StoredRowsError as exc:  # a folder with no evaluation: one line, not a traceback
+            raise SystemExit(f"band_ranking.py: {exc}") from None
+        rows = [r for r in stored
                 if r.get("method") == args.method and r.get("predicted_success") is not None
                 and r.get("simulated_success") is not None and (r.get("max_constraint_violation") or 0.0) <= HOLD_TOL
                 and args.constraint_sets in ("all", "with" if r.get("band_constraints") else "without")]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import importlib.util
 
 import numpy as np
+import pytest
 
 from judgeopt.files import REPO
 
@@ -56,3 +57,7 @@ def test_a_cross_fitted_calibrator_ranks_what_the_judge_cannot(tmp_path, monkeyp
     assert f"150 held plans that hold their limits, drawn with a constraint set, {successes} succeeded" in out
     assert "| judge's own p | 0 / 0 / 0 |" in out
     assert f"| calibrated, fitted on 150 plans of {tmp_path / 'fitted'} | {successes} / {successes} / {successes} |" in out
+    monkeypatch.setattr(sys, "argv", ["band_ranking", str(tmp_path / "scored"), "--method", "held", "--fit",
+                                      str(tmp_path / "none")])
+    with pytest.raises(SystemExit, match="none: no evaluated plans"):  # one line, not a traceback
+        _script().main()
