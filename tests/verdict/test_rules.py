@@ -52,7 +52,15 @@ def test_solve_reports_a_verdict_and_its_source(capsys):
 
 @pytest.mark.parametrize("suggest_flag", ["--no-suggest", "--suggest"])
 def test_solve_exits_4_and_says_so_in_one_line_when_no_plan_is_likely(monkeypatch, capsys, suggest_flag):
-    monkeypatch.setattr(rules_module, "LIKELY", 1.01)
+    from judgeopt.planners import result as result_module
+    from judgeopt.session import suggest as suggest_module
+    from judgeopt.verdict import rows as rows_module
+
+    # every module that took LIKELY by name, each restored after the test: one patched only while a
+    # module was first imported would keep 1.01 for the rest of the session (no suggestion was then
+    # ever likely in tests/planners/test_solve.py when it ran after this one)
+    for module in (rules_module, result_module, rows_module, suggest_module):
+        monkeypatch.setattr(module, "LIKELY", 1.01)
     rc = main(["solve", "--qdot-max", "0.4", "--method", "direct", "--no-simulate", suggest_flag])
     text = capsys.readouterr().out
     assert rc == 4
