@@ -98,11 +98,11 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         rows = [dataclasses.replace(r, name=f"{r.name}, {Path(args.judge).name}", judge=args.judge)
                 if r.judge or r.method in REGISTRY else r for r in rows]
     out = Path(args.out or f"out/evaluate/{args.table}")
-    calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence, plan_model = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
     for rs in results.values():  # with the calibration and evidence there are now (cached plans may predate them)
-        rescore(rs, calibrators, evidence, args.risk)
+        rescore(rs, calibrators, evidence, args.risk, plan_model)
     summary = summarise(rows, results)
     title = table.title.format(qdot_max=problem.qdot_max, name=problem.name, task=problem.task,
                                f_min=problem.f_min, f_max=problem.f_max, env=_env_text(problem))
@@ -149,11 +149,11 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     methods = tuple(args.methods) if args.methods else None
     rows, notes = sweep_rows(problem, sets, vary, args.models, methods, args.baselines)
     out = Path(args.out or "out/evaluate/sweep")
-    calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence, plan_model = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     results = run_table(problem, rows, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                         chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
     for rs in results.values():  # with the calibration and evidence there are now (cached plans may predate them)
-        rescore(rs, calibrators, evidence, args.risk)
+        rescore(rs, calibrators, evidence, args.risk, plan_model)
     summary = summarise_sweep(sets, rows, results, methods)
     env = _env_text(problem) if vary is None else _env_text(problem.with_overrides(**{vary[0]: list(vary[1])}))
     at = f" at the limits of {problem.name}" if what == "constraint" else ""
@@ -174,13 +174,13 @@ def cmd_edge(args: argparse.Namespace) -> int:
 
     methods = tuple(args.methods or default_planners())
     out = Path(args.out or "out/evaluate/edge")
-    calibrators, evidence = _calibration(base, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence, plan_model = _calibration(base, args.calibration)  # a bad file fails here, before any planning
     rows = []
     for q in args.qdot_max or (None,):
         problem = base if q is None else base.with_overrides(qdot_max=q)
         rows += run_edge(problem, cfg, methods, args.n, args.seed, out, vary, n_jobs=args.jobs,
                          scheduler=args.scheduler, chunk=args.chunk, models_dir=args.models, progress=not args.quiet)
-    rescore(rows, calibrators, evidence, args.risk)  # cached plans may predate the calibration
+    rescore(rows, calibrators, evidence, args.risk, plan_model)  # cached plans may predate the calibration
     summary = summarise_edge(rows, methods)
     speeds = ", ".join(f"{q:g}" for q in args.qdot_max) if args.qdot_max else f"{base.qdot_max:g}"
     env = _env_text(base) if vary is None else _env_text(base.with_overrides(**{vary[0]: list(vary[1])}))
@@ -207,10 +207,10 @@ def cmd_band(args: argparse.Namespace) -> int:
     cfg = dataclasses.replace(band, constrained=0.3 if args.constrained is None else args.constrained)
     methods = tuple(args.methods or default_planners())
     out = Path(args.out or "out/evaluate/band")
-    calibrators, evidence = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
+    calibrators, evidence, plan_model = _calibration(problem, args.calibration)  # a bad file fails here, before any planning
     rows = run_band(problem, cfg, methods, args.n, args.seed, out, n_jobs=args.jobs, scheduler=args.scheduler,
                     chunk=args.chunk, models_dir=args.models, ensemble=args.ensemble, progress=not args.quiet)
-    rescore(rows, calibrators, evidence, args.risk)
+    rescore(rows, calibrators, evidence, args.risk, plan_model)
     summary = summarise_band(rows, methods)
     ranges = ", ".join(f"{k} {lo:g}-{hi:g}" for k, lo, hi in cfg.ranges)
     title = (f"The verdict across the edge band: {problem.name}, {ranges}, {100 * cfg.constrained:g} % constrained; "
@@ -338,15 +338,18 @@ def _vary(problem, item: tuple[str, tuple[float, float]]) -> tuple[str, tuple[fl
     return name, (lo, hi)
 
 
-def _calibration(problem, path: str | None) -> tuple[dict, dict]:
-    """The calibrators and held-out evidence of --calibration, or of the problem's file where it
-    exists (none: no calibrated column, every risk unchecked), read once."""
-    from judgeopt.verdict.calibration import load_calibration_file
+def _calibration(problem, path: str | None) -> tuple[dict, dict, object]:
+    """The calibrators, held-out evidence and plan model (None: none) of --calibration, or of the
+    problem's file where it exists (none: no calibrated column, every risk unchecked), read once."""
     from judgeopt.files import resolve
+    from judgeopt.verdict.calibration import load_calibration_document
+    from judgeopt.verdict.plan_model import plan_model_of
 
     if path is None and not (problem.calibration and resolve(problem.calibration).exists()):
-        return {}, {}
-    return load_calibration_file(resolve(path or problem.calibration))
+        return {}, {}, None
+    file = resolve(path or problem.calibration)
+    calibrators, evidence, section = load_calibration_document(file)
+    return calibrators, evidence, plan_model_of(section, str(file))
 
 
 def _argv(args: argparse.Namespace) -> list[str]:
@@ -376,10 +379,12 @@ def _argv(args: argparse.Namespace) -> list[str]:
 
 
 def cmd_calibrate(args: argparse.Namespace) -> int:
-    from judgeopt.verdict.calibration import CalibrationError, load_calibration_file, save_calibration
+    from judgeopt.verdict.calibration import CalibrationError, load_calibration_document, save_calibration
     from judgeopt.verdict.risk import whose
 
     check_writable([args.out])
+    if args.plan_model:
+        return _calibrate_plan_model(args)
     if not args.folders and not args.evidence:
         raise CLIError("give evaluation folders to fit on, or --evidence FOLDER... to set the risk behind 'likely' "
                        "for the calibration already in --out")
@@ -387,7 +392,7 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     if not args.folders and not out.exists():
         raise CalibrationError(f"--evidence: {out} holds no calibration to add it to; fit one first with "
                                f"`judgeopt calibrate FOLDER... --out {out}`")
-    kept, old_evidence = load_calibration_file(out) if out.exists() else ({}, {})
+    kept, old_evidence, plan_model = load_calibration_document(out) if out.exists() else ({}, {}, None)
     kept, old_evidence = ({}, {}) if args.replace else (kept, old_evidence)
     fitted, refitted = _fit_calibration(args) if args.folders else ({}, set())
     calibrators = {**{k: v for k, v in kept.items() if k not in fitted}, **fitted}
@@ -395,14 +400,48 @@ def cmd_calibrate(args: argparse.Namespace) -> int:
     # new evidence replaces all the old of its planner, judge and arm (every kind of p)
     new = _risk_evidence(args, calibrators) if args.evidence else {}
     renewed = {whose(k) for k in new}
-    evidence = {**{k: v for k, v in old_evidence.items() if whose(k) not in refitted | renewed}, **new}
+    # a plan model's evidence is its own (--plan-model), kept beside what is renewed here
+    evidence = {**{k: v for k, v in old_evidence.items() if whose(k) not in refitted | renewed or v.kind == "plans"},
+                **new}
     dropped = sorted(k for k in old_evidence if whose(k) in refitted - renewed)
     if dropped:
         print(f"note: the held-out evidence in {out} for {', '.join(dropped)} described the calibration being "
               "replaced and is dropped; recompute it with --evidence FOLDER (`judgeopt evaluate band` on another seed)")
-    save_calibration(out, calibrators, evidence)
+    save_calibration(out, calibrators, evidence, plan_model)
     print(f"wrote {out} ({len(fitted)} settings fitted, {len(calibrators) - len(fitted)} kept from before"
           f"{f', evidence for {len(evidence)} planners' if evidence else ''})")
+    return 0
+
+
+def _calibrate_plan_model(args: argparse.Namespace) -> int:
+    """Fit a plan model (judgeopt.verdict.plan_model) on band folders and set its threshold of "likely"
+    on out-of-fold p (each folder scored by a model of the others); the rest of --out is kept."""
+    from judgeopt.evaluate.stored import read_rows
+    from judgeopt.verdict.calibration import load_calibration_document, save_calibration
+    from judgeopt.verdict.plan_model import fit_plan_model, out_of_fold
+    from judgeopt.verdict.risk import RISK, fit_evidence
+
+    if args.folders or args.evidence:
+        raise CLIError("--plan-model fits on its own folders (each is held out from the others' model): give the "
+                       "other folders in a call of their own")
+    out = Path(args.out)
+    calibrators, old_evidence, _ = load_calibration_document(out) if out.exists() else ({}, {}, None)
+    folds = {f: [r for r in read_rows([f]) if not args.methods or r.get("method") in args.methods]
+             for f in args.plan_model}
+    if len(folds) < 2:
+        raise CLIError("--plan-model needs at least two band folders (each is scored by a model fitted on the others)")
+    out_of_fold(folds)
+    rows = [r for rs in folds.values() for r in rs]
+    new = {k: e for k, e in fit_evidence(rows, args.confidence).items() if e.kind == "plans"}
+    for e in new.values():
+        e.sources = sorted(folds)
+    model = fit_plan_model(rows, sources=list(folds))
+    evidence = {**{k: v for k, v in old_evidence.items() if v.kind != "plans"}, **new}
+    save_calibration(out, calibrators, evidence, model.to_dict())
+    for e in new.values():
+        print(f"{e.method}: {e.describe(RISK)}")
+    print(f"wrote {out} (a plan model fitted on {model.n} replayed plans of {len(folds)} folders, "
+          f"{model.successes} succeeded; its evidence counted out of fold; the other {len(calibrators)} settings kept)")
     return 0
 
 
@@ -590,4 +629,9 @@ def add_evaluate_commands(sub: argparse._SubParsersAction) -> None:
                    "limits in the folders (a sweep's), with q̇ and force limits as inputs beside the environment: it "
                    "then also covers limits between those it saw; plans under constraint sets (a band's) get one of their "
                    "own over limits and constraint sets")
+    c.add_argument("--plan-model", nargs="+", metavar="DIR", help="band folders (`judgeopt evaluate band`, two or "
+                   "more seeds) to fit a plan model on: one boosted classifier over every planner's plans that reads "
+                   "the plan's samples, the constraint set, the limits, the environment and the judge's p; its p stands "
+                   "where it covers a plan, and its threshold of 'likely' is set on out-of-fold p (each folder scored "
+                   "by a model of the others). Kept in --out beside the calibrators")
     c.set_defaults(func=cmd_calibrate)

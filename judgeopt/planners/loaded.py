@@ -219,6 +219,7 @@ class Planners:
     calibrators: dict = field(default_factory=dict)  # method -> calibration.Calibrator
     calibration_file: dict = field(default_factory=dict)  # every calibrator in the problem's file
     evidence: dict = field(default_factory=dict)  # the file's held-out evidence (verdict.risk.evidence_key -> Evidence)
+    plan_model: Any = None  # the file's plan model (verdict.plan_model.PlanModel), where it has one
     risk: float = RISK  # the failure rate a "likely" may carry (its upper confidence bound on the evidence)
     #: generator path -> (Generator or GeneratorArrays, meta), shared by with_limits copies
     generators: dict = field(default_factory=dict)
@@ -329,7 +330,8 @@ class Planners:
 
     def _settings(self) -> None:
         """Each method's setting (what its outcomes depend on) and its calibrator, if fitted."""
-        from judgeopt.verdict.calibration import lookup, read_calibration_file
+        from judgeopt.verdict.calibration import lookup, read_calibration_document
+        from judgeopt.verdict.plan_model import plan_model_of
 
         self.settings = self.chosen.settings(self.methods)
         self.families = self.chosen.settings(self.methods, over_limits=True)
@@ -346,7 +348,8 @@ class Planners:
                                   "judge's own, uncalibrated (fit one with `judgeopt calibrate`)")
                 return
             # a setting without one reports the judge's probability (fit one with `judgeopt calibrate`)
-            self.calibration_file, self.evidence = read_calibration_file(path)  # shared: never changed here
+            self.calibration_file, self.evidence, section = read_calibration_document(path)  # shared: never changed
+            self.plan_model = plan_model_of(section, str(path))
         found = {m: lookup(self.calibration_file, self.settings[m], self.families[m], self.constrained_families.get(m))
                  for m in self.methods}
         self.calibrators = {m: c for m, c in found.items() if c is not None}
@@ -468,6 +471,12 @@ class Planners:
         cal = self.calibrators.get(r.method)
         if cal is not None and r.predicted_success is not None:
             r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
+        if self.plan_model is not None and r.plan is not None and r.predicted_success is not None:
+            from judgeopt.verdict.plan_model import plan_row
+
+            r.info.update(self.plan_model.annotate(plan_row(
+                r.method, env, limits, r.predicted_success, self.judge_meta["weights_sha256"], r.plan,
+                dataclasses.asdict(self.problem.constraints)), self.problem.robot))
         outside = outside_data(self.judge_meta, env, limits)
         if outside:
             r.info["outside_judge_data"] = outside

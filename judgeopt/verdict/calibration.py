@@ -28,6 +28,7 @@ import numpy as np
 from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
+from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.verdict.risk import Evidence
 
 FORMAT, VERSION = "judgeopt-calibration", 2
@@ -259,12 +260,15 @@ def fit(setting: str, method: str, description: str, env_names: list[str], envs:
 
 
 def save_calibration(path: str | Path, calibrators: dict[str, Calibrator],
-                     evidence: dict[str, Evidence] | None = None) -> Path:
-    """The calibrators, and the held-out evidence that sets the risk behind "likely" (judgeopt.verdict.risk)."""
+                     evidence: dict[str, Evidence] | None = None, plan_model: dict[str, Any] | None = None) -> Path:
+    """The calibrators, the held-out evidence that sets the risk behind "likely" (judgeopt.verdict.risk),
+    and a plan model (judgeopt.verdict.plan_model, as its to_dict) where there is one."""
     path = Path(path)
     doc = {**header(FORMAT, VERSION), "settings": {k: asdict(c) for k, c in sorted(calibrators.items())}}
     if evidence:
         doc["evidence"] = {k: e.to_dict() for k, e in sorted(evidence.items())}
+    if plan_model:
+        doc["plan_model"] = plan_model
     atomic_write(path, (json.dumps(doc, indent=1) + "\n").encode())
     return path
 
@@ -274,6 +278,12 @@ def load_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict
     (judgeopt.verdict.risk.evidence_key; empty where it has none: every verdict's risk is then
     unchecked), validated: a version-1 file (coverage judged axis by axis, no monotone map) is
     refused with the command that refits it."""
+    return load_calibration_document(path)[:2]
+
+
+def load_calibration_document(path: str | Path) -> tuple[dict[str, Calibrator], dict[str, Evidence], dict | None]:
+    """load_calibration_file, and the file's plan model as stored (None: it has none; validated where it
+    is read, by judgeopt.verdict.plan_model.PlanModel.from_dict)."""
     path = Path(path)
     if path.is_dir():
         raise CalibrationError(f"{path}: a folder, not a calibration file (give the .json that "
@@ -305,11 +315,15 @@ def load_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict
     except (TypeError, ValueError, AttributeError) as exc:
         raise CalibrationError(f"{path}: malformed evidence ({exc}); recompute it with `judgeopt calibrate "
                                f"--evidence FOLDER... --out {path}`") from None
-    return out, evidence
+    plan_model = doc.get("plan_model")
+    if plan_model is not None and not isinstance(plan_model, dict):
+        raise CalibrationError(f"{path}: malformed plan model (not an object); refit it with `judgeopt calibrate "
+                               f"--plan-model FOLDER... --out {path}`")
+    return out, evidence, plan_model
 
 
-#: resolved path -> ((modification time, size), what load_calibration_file read there)
-_READ: dict[str, tuple[tuple[int, int], tuple[dict[str, Calibrator], dict[str, Evidence]]]] = {}
+#: resolved path -> ((modification time, size), (calibrators, evidence), plan model section) as read there
+_READ: dict[str, tuple[tuple[int, int], tuple[dict[str, Calibrator], dict[str, Evidence]], dict | None]] = {}
 
 
 def read_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict[str, Evidence]]:
@@ -317,16 +331,28 @@ def read_calibration_file(path: str | Path) -> tuple[dict[str, Calibrator], dict
     size): a service's worker loads planners for every new environment or limits, and parsing the
     file cost each such request about 25 ms. The objects are shared by every caller: read them,
     never change them (load_calibration_file gives a copy of one's own)."""
+    return _kept(path)[1]
+
+
+def read_calibration_document(path: str | Path) -> tuple[dict[str, Calibrator], dict[str, Evidence], dict | None]:
+    """read_calibration_file, and the file's plan model section (shared too)."""
+    kept = _kept(path)
+    return (*kept[1], kept[2])
+
+
+def _kept(path: str | Path) -> tuple[Any, tuple[dict[str, Calibrator], dict[str, Evidence]], dict | None]:
     path = Path(path)
     try:
         st = path.stat()
     except OSError:
-        return load_calibration_file(path)  # its own message for a missing file
+        calibrators, evidence, section = load_calibration_document(path)  # its own message for a missing file
+        return None, (calibrators, evidence), section
     key, stamp = str(path.resolve()), (st.st_mtime_ns, st.st_size)
     kept = _READ.get(key)
     if kept is None or kept[0] != stamp:
-        _READ[key] = kept = (stamp, load_calibration_file(path))
-    return kept[1]
+        calibrators, evidence, section = load_calibration_document(path)
+        _READ[key] = kept = (stamp, (calibrators, evidence), section)
+    return kept
 
 
 def load_calibration(path: str | Path) -> dict[str, Calibrator]:
@@ -353,16 +379,23 @@ def lookup(calibrators: dict[str, Calibrator], setting: str | None, family: str 
     return calibrators.get(setting or "") or calibrators.get(family or "") or calibrators.get(constrained_family or "")
 
 
-def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator]) -> None:
+def calibrate_rows(rows: list[dict], calibrators: dict[str, Calibrator], plan_model: Any = None) -> None:
     """Add `calibrated_success` (and whether the calibration covers the plan) to
-    evaluation rows whose setting has a calibrator. What an earlier calibration wrote into a row
+    evaluation rows whose setting has a calibrator, or that `plan_model` (a
+    judgeopt.verdict.plan_model.PlanModel) covers: its p then stands. What an earlier calibration wrote into a row
     (a chunk planned before this one was fitted) is dropped first: rows say what `calibrators` say."""
     seen = {k: set(c.fitted_on) for k, c in calibrators.items()}
     for r in rows:
-        for key in ("calibrated_success", "calibration_covers", "calibration_fitted_on_env"):
+        for key in ("calibrated_success", "calibration_covers", "calibration_fitted_on_env", "calibrated_by"):
             r.pop(key, None)
+        if r.get("predicted_success") is None:
+            continue
+        if plan_model is not None:
+            r.update(plan_model.annotate(r, r.get("robot", DEFAULT_ROBOT)))
+            if r.get("calibrated_by"):
+                continue
         cal = lookup(calibrators, r.get("setting"), r.get("family"), r.get("constrained_family"))
-        if cal is None or r.get("predicted_success") is None:
+        if cal is None:
             continue
         values = inputs(r.get("limits", {}), r["environment"])
         r.update(cal.annotate(values, r["predicted_success"]))

@@ -58,8 +58,11 @@ def lower_bound(successes: int, n: int, confidence: float = CONFIDENCE) -> float
     return 1.0 - upper_bound(n - successes, n, confidence) if successes else 0.0
 
 
-#: the kinds of p evidence is kept for, apart: a calibrated p and the judge's own (rules.stood_behind's sources)
-KINDS = ("calibrated", "judge")
+#: the kinds of p evidence is kept for, apart: a calibrator's p, the judge's own (rules.stood_behind's sources),
+#: and a plan model's (judgeopt.verdict.plan_model; printed as calibrated, its threshold its own)
+KINDS = ("calibrated", "judge", "plans")
+#: what a row's `calibrated_by` says where a plan model's p stands (a calibrator's rows carry none)
+PLAN_MODEL = "plan model"
 
 
 def evidence_key(method: str, judge_sha256: str | None, robot: str = DEFAULT_ROBOT, kind: str = "") -> str:
@@ -83,9 +86,11 @@ def calibration_applies(calibrated: float | None, covers: Any) -> bool:
 
 
 def kind_of(row: Mapping[str, Any]) -> str:
-    """The kind of p a plan's result (its info, or its JSON row) is judged by: "calibrated" where a
-    calibration covers it, else the judge's own."""
-    return "calibrated" if calibration_applies(row.get("calibrated_success"), row.get("calibration_covers")) else "judge"
+    """The kind of p a plan's result (its info, or its JSON row) is judged by: "plans" where a plan model's
+    p stands, "calibrated" where a calibrator covers it, else the judge's own."""
+    if not calibration_applies(row.get("calibrated_success"), row.get("calibration_covers")):
+        return "judge"
+    return "plans" if row.get("calibrated_by") == PLAN_MODEL else "calibrated"
 
 
 @dataclass
@@ -108,7 +113,8 @@ class Evidence:
     @property
     def subject(self) -> str:
         """Its planner, in words with the kind of p: what a threshold is a threshold on."""
-        of = {"calibrated": " with a calibrated p", "judge": " with the judge's own p"}.get(self.kind, "")
+        of = {"calibrated": " with a calibrated p", "judge": " with the judge's own p",
+              "plans": " with a plan model's p"}.get(self.kind, "")
         return self.method + of
 
     @property
@@ -204,14 +210,14 @@ def fit_evidence(rows: Iterable[Mapping[str, Any]], confidence: float = CONFIDEN
     for r in rows:
         if r.get("method") and r.get("simulated_success") is not None and r.get("predicted_success") is not None:
             whose_ = (r["method"], r.get("judge_sha256"), r.get("robot", DEFAULT_ROBOT))
-            for kind in KINDS:
+            for kind in ("calibrated", "judge"):  # a plan model's kind only where its p stood
                 by.setdefault((*whose_, kind), [])
-            by[(*whose_, kind_of(r))].append(r)
+            by.setdefault((*whose_, kind_of(r)), []).append(r)
     out = {}
     for (method, sha, robot, kind), rs in sorted(by.items(), key=lambda kv: evidence_key(*kv[0])):
         y = np.array([bool(r["simulated_success"]) for r in rs], bool)
         judge = np.array([r["predicted_success"] for r in rs], float)
-        covered = kind == "calibrated"
+        covered = kind in ("calibrated", "plans")
         cal = np.array([r["calibrated_success"] for r in rs], float) if covered else judge
         raised = covered & (judge < RAISE_FROM) & (cal >= RAISE_FROM)
         floor = lower_bound(int(y[raised].sum()), int(raised.sum()), confidence)

@@ -4,6 +4,7 @@ another risk, are re-scored, so every report counts the verdicts `solve` would p
 
 from __future__ import annotations
 
+from typing import Any
 
 from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.verdict.calibration import calibrate_rows
@@ -24,10 +25,10 @@ def reassess(rows: list[dict]) -> None:
                                   breaks(r.get("max_constraint_violation")), r.get("likely_at", LIKELY))
 
 
-def rescore(rows: list[dict], calibrators: dict, evidence: dict, risk: float) -> None:
-    """Each row's p and verdict as the given calibration and its evidence say at `risk` (rows
-    planned before either was fitted say what they say now)."""
-    calibrate_rows(rows, calibrators)
+def rescore(rows: list[dict], calibrators: dict, evidence: dict, risk: float, plan_model: Any = None) -> None:
+    """Each row's p and verdict as the given calibration (its calibrators and plan model) and its
+    evidence say at `risk` (rows planned before either was fitted say what they say now)."""
+    calibrate_rows(rows, calibrators, plan_model)
     for r in rows:
         if r.get("method"):
             annotate(r, evidence, r["method"], r.get("judge_sha256"),

@@ -1,0 +1,179 @@
+"""The plan model (judgeopt.verdict.plan_model) against figures known by construction: scikit-learn's own
+predictions, outcomes that depend on one sample of the plan only, folds whose outcomes are reversed."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from judgeopt.verdict.calibration import CalibrationError, load_calibration_document, save_calibration
+from judgeopt.verdict.plan_model import (BOOSTING, PlanModel, constraints_of, fit_plan_model, out_of_fold,
+                                         plan_model_of)
+from judgeopt.verdict.risk import PLAN_MODEL, fit_evidence, kind_of
+
+SAMPLES = 31
+JUDGE = "c" * 64
+
+
+def _band(n: int, seed: int, flip: bool = False, method_of=lambda i: ("direct", "held")[i % 2]) -> list[dict]:
+    """Band rows whose outcome is the plan's force at knot 15 above 12 N (below, with `flip`); the judge
+    says 0.9 to every plan, so only the plan's samples can tell them apart."""
+    rng = np.random.default_rng(seed)
+    rows = []
+    for i in range(n):
+        f = rng.uniform(8.0, 16.0, SAMPLES)
+        rows.append({"method": method_of(i), "predicted_success": 0.9, "simulated_success": bool((f[15] > 12.0) != flip),
+                     "max_constraint_violation": 0.0, "judge_sha256": JUDGE,
+                     "environment": {"y_obj": float(rng.uniform(0.12, 0.27)), "mu": float(rng.uniform(1.0, 3.2))},
+                     "limits": {"qdot_max": float(rng.uniform(0.3, 1.0)), "f_max": 16.0},
+                     "band_constraints": {"fdot_max": 60.0} if i % 3 == 0 else {},
+                     "channels": ["y", "ydot", "f"], "y": rng.uniform(0, 0.3, SAMPLES).tolist(),
+                     "ydot": rng.uniform(-0.5, 0.5, SAMPLES).tolist(), "f": f.tolist()})
+    return rows
+
+
+@pytest.fixture(scope="module")
+def fitted() -> tuple[PlanModel, list[dict]]:
+    rows = _band(600, 1)
+    return fit_plan_model(rows), rows
+
+
+def test_the_trees_walked_with_numpy_give_scikit_learn_s_own_probabilities(fitted):
+    """Missing rates (NaN: no constraint set) go where scikit-learn sends them."""
+    from sklearn.ensemble import HistGradientBoostingClassifier
+
+    model, rows = fitted
+    X = model.features(rows)
+    assert np.isnan(X[:, 1 + len(model.names) + 2]).any()  # fdot_max: not drawn in two of three settings
+    X[:, np.isnan(X).all(axis=0)] = 0.0  # a_max and jerk_max, never drawn (as fit_plan_model fits them)
+    clf = HistGradientBoostingClassifier(**BOOSTING, random_state=0).fit(X, [r["simulated_success"] for r in rows])
+    others = model.features(_band(200, 7))
+    assert np.abs(model.predict(others) - clf.predict_proba(others)[:, 1]).max() < 1e-12
+
+
+def test_it_reads_the_plan_where_the_judge_says_the_same_to_every_plan(fitted):
+    model, _ = fitted
+    fresh = _band(300, 2)
+    p = model.predict(model.features(fresh))
+    y = np.array([r["simulated_success"] for r in fresh])
+    clear = np.array([abs(r["f"][15] - 12.0) > 0.5 for r in fresh])  # not within half a newton of the edge
+    assert ((p > 0.5) == y)[clear].all() and ((p > 0.5) == y).mean() > 0.95
+
+
+def test_it_covers_only_what_it_was_fitted_on(fitted):
+    model, rows = fitted
+    row = dict(rows[0])
+    assert model.covers(row) and model.annotate(row)["calibrated_by"] == PLAN_MODEL
+    far = {**row, "limits": {**row["limits"], "qdot_max": 1.5}}
+    under_scale = {**row, "band_constraints": {"joint_limit_scale": 0.8}}
+    per_axis = {**row, "band_constraints": {"fdot_max": [60.0, 70.0]}}
+    unknown = {k: v for k, v in row.items() if k != "band_constraints"}
+    shorter = {**row, "f": row["f"][:-1]}
+    for r in (far, under_scale, per_axis, unknown, shorter, {**row, "method": "cmaes"}, {**row, "judge_sha256": "d" * 64}):
+        assert not model.covers(r) and model.annotate(r) == {}
+    assert not model.covers(row, robot="panda")
+    # a live problem's constraint set with nothing set is no constraint set
+    live = {**unknown, "constraints": {"a_max": None, "jerk_max": None, "fdot_max": None, "bounds": [],
+                                       "joint_limit_scale": None}}
+    assert constraints_of(live) == live["constraints"] and model.covers(live)
+
+
+def test_each_fold_is_scored_by_a_model_that_never_saw_it():
+    """Two folds whose outcomes are the reverse of each other: a model of the other fold gets every plan
+    wrong. A model that had seen the fold itself would get most of them right."""
+    folds = {"a": _band(300, 3), "b": _band(300, 4, flip=True)}
+    out_of_fold(folds)
+    for rows in folds.values():
+        p = np.array([r["calibrated_success"] for r in rows])
+        y = np.array([r["simulated_success"] for r in rows])
+        assert all(kind_of(r) == "plans" for r in rows)
+        assert (p[y] < 0.5).mean() > 0.9 and (p[~y] > 0.5).mean() > 0.9
+    with pytest.raises(CalibrationError, match="at least two band folders"):
+        out_of_fold({"a": folds["a"]})
+
+
+def test_the_evidence_of_a_plan_model_s_p_is_kept_apart_and_made_only_where_it_stood(fitted):
+    model, rows = fitted
+    scored = [{**r, **model.annotate(r)} for r in rows[:100]]
+    plain = [{**r, "method": "amortized"} for r in rows[100:150]]
+    evidence = fit_evidence(scored + plain)
+    kinds = {(e.method, e.kind) for e in evidence.values()}
+    assert ("direct", "plans") in kinds and ("held", "plans") in kinds and ("amortized", "plans") not in kinds
+    assert ("amortized", "judge") in kinds and ("amortized", "calibrated") in kinds
+
+
+def test_a_calibration_file_keeps_the_model_and_refuses_a_broken_one(tmp_path, fitted):
+    model, rows = fitted
+    path = save_calibration(tmp_path / "cal.json", {}, None, model.to_dict())
+    _, _, section = load_calibration_document(path)
+    again = plan_model_of(section, str(path))
+    assert again.predict(again.features(rows[:20])).tolist() == model.predict(model.features(rows[:20])).tolist()
+    broken = json.loads(path.read_text())
+    broken["plan_model"]["trees"][0]["left"][0] = 10 ** 6
+    path.write_text(json.dumps(broken))
+    with pytest.raises(CalibrationError, match="malformed plan model .*points outside.*--plan-model"):
+        plan_model_of(load_calibration_document(path)[2], str(path))
+    broken["plan_model"] = [1, 2]
+    path.write_text(json.dumps(broken))
+    with pytest.raises(CalibrationError, match="malformed plan model"):
+        load_calibration_document(path)
+
+
+def test_too_few_plans_or_two_judges_are_refused():
+    with pytest.raises(CalibrationError, match="too few for a plan model"):
+        fit_plan_model(_band(50, 5))
+    mixed = _band(200, 5)
+    mixed[0]["judge_sha256"] = "d" * 64
+    with pytest.raises(CalibrationError, match="2 judges"):
+        fit_plan_model(mixed)
+
+
+def test_calibrate_fits_a_plan_model_on_band_folders_and_keeps_the_rest_of_the_file(tmp_path, capsys):
+    from judgeopt.cli.main import main
+    from judgeopt.files import REPO
+
+    for name, seed in (("a", 11), ("b", 12)):
+        (tmp_path / name / "partial").mkdir(parents=True)
+        (tmp_path / name / "partial" / "rows.json").write_text(json.dumps(_band(300, seed)))
+    out = tmp_path / "cal.json"
+    out.write_bytes((REPO / "models" / "calibration_default.json").read_bytes())
+    before, before_evidence, _ = load_calibration_document(out)
+    assert main(["calibrate", "--plan-model", str(tmp_path / "a"), str(tmp_path / "b"), "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "direct: likely at p >= " in text and "a plan model fitted on 600 replayed plans of 2 folders" in text
+    calibrators, evidence, section = load_calibration_document(out)
+    assert set(calibrators) == set(before) and all(evidence[k].to_dict() == e.to_dict() for k, e in before_evidence.items())
+    assert {e.kind for e in evidence.values() if e.judge_sha256 == JUDGE} == {"plans"}
+    assert plan_model_of(section, str(out)).n == 600
+    assert main(["calibrate", "--plan-model", str(tmp_path / "a"), "--out", str(out)]) != 0
+    assert "at least two band folders" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_solve_reads_the_plan_model_of_its_calibration_file_where_it_covers_the_plan(tmp_path):
+    """A model fitted on band rows of the shipped judge: a direct plan inside its ranges gets its p (printed as
+    calibrated, judged by its own evidence's kind); the same plan beyond them keeps the calibrators' p."""
+    from judgeopt.files import resolve
+    from judgeopt.planners.loaded import Planners
+    from judgeopt.planners.problem import LIMIT_NAMES, load_problem
+
+    problem = load_problem(resolve("problems/paper_sim.toml")).with_overrides(qdot_max=0.5, f_max=13.0)
+    sha = Planners.load(problem, ("direct",)).judge_meta["weights_sha256"]
+    rows = _band(300, 21, method_of=lambda i: "direct")
+    for r, f_max in zip(rows, np.random.default_rng(22).uniform(11.0, 15.5, len(rows))):
+        r["judge_sha256"] = sha
+        r["limits"] = {**{k: getattr(problem, k) for k in LIMIT_NAMES}, "qdot_max": r["limits"]["qdot_max"],
+                       "f_max": float(f_max)}
+    model = fit_plan_model(rows)
+    path = save_calibration(tmp_path / "cal.json", *load_calibration_document(resolve("models/calibration_default.json"))[:2],
+                            model.to_dict())
+    env = {"y_obj": 0.2, "mu": 2.0}
+    (inside,) = Planners.load(problem.with_overrides(calibration=str(path)), ("direct",)).solve(env)
+    assert inside.info["calibrated_by"] == PLAN_MODEL and inside.probability_source == "calibrated"
+    f = inside.plan.values[:, [c.name for c in inside.plan.channels].index("f")]
+    assert inside.info["calibrated_success"] == pytest.approx(float(f[15] > 12.0), abs=0.1)
+    assert kind_of(inside.info) == "plans"
+    (beyond,) = Planners.load(problem.with_overrides(calibration=str(path), f_max=20.0), ("direct",)).solve(env)
+    assert "calibrated_by" not in beyond.info
