@@ -140,15 +140,23 @@ def _ensemble(p: Path) -> dict[str, Any]:
 
 def _calibration(p: Path) -> dict[str, Any]:
     """Its calibrators, and the held-out evidence behind "likely" per planner (at the default risk)."""
-    from judgeopt.verdict.calibration import describe, load_calibration_file
+    from judgeopt.verdict.calibration import describe, load_calibration_document
+    from judgeopt.verdict.plan_model import plan_model_of
     from judgeopt.verdict.risk import RISK
 
-    calibrators, found = load_calibration_file(p)
+    calibrators, found, section = load_calibration_document(p)
+    model = plan_model_of(section, str(p))
     evidence = [{"planner": k, "kind of p": e.kind or "both (stored before they were kept apart)", "plans": e.plans, "confidence": e.confidence, "sources": e.sources,
                  "ranges": {n: [round(lo, 4), round(hi, 4)] for n, (lo, hi) in e.ranges.items() if hi > lo},
                  f"at risk {RISK:g}": e.describe(RISK), "raised above 0.5 by the calibration": e.raised,
                  "thresholds": e.grid} for k, e in found.items()]
-    return {"path": str(p), "settings": [describe(c) for c in calibrators.values()], "evidence": evidence}
+    out = {"path": str(p), "settings": [describe(c) for c in calibrators.values()], "evidence": evidence}
+    if model is not None:
+        out["plan model"] = {"planners": model.planners, "plans": model.n, "succeeded": model.successes,
+                             "trees": len(model.sizes), "sources": model.sources, "robot": model.robot,
+                             "ranges": {n: [round(lo, 4), round(hi, 4)] for n, lo, hi in zip(model.names, model.low,
+                                                                                           model.high) if hi > lo}}
+    return out
 
 
 def _trust_region(p: Path) -> dict[str, Any]:

@@ -5,7 +5,7 @@ a calibrated p; it never sees the plan. At the edge of the scoop the confident f
 misses (the object 3.5-6 cm off the blade's centre, where 3.5 cm is a success) that the judge's p
 and the inputs do not tell apart (docs/verdict.md, "Where the confident failures lie"). This model
 also reads the plan's samples, the constraint set and the planner: a gradient-boosted classifier
-(scikit-learn's HistGradientBoostingClassifier), its trees kept as plain arrays in the calibration
+(scikit-learn's HistGradientBoostingClassifier), its trees kept as flat arrays of numbers in the calibration
 file and walked here with numpy, so a file from someone else is data, never code.
 
 It covers a plan only inside what it was fitted on: the same judge, arm, planners, channels and
@@ -16,6 +16,7 @@ out-of-fold p (each band folder scored by a model of the others; `out_of_fold`).
 
 from __future__ import annotations
 
+import base64
 from dataclasses import asdict, dataclass, field
 from typing import Any, Mapping, Sequence
 
@@ -31,6 +32,9 @@ RATES = ("a_max", "jerk_max", "fdot_max")
 BOOSTING = {"max_iter": 300, "learning_rate": 0.05, "max_leaf_nodes": 31, "early_stopping": False}
 #: a value further than this share of a fitted range's width beyond it is not covered
 RANGE_MARGIN = 0.02
+#: each node's fields and how they are stored (children are indices inside their own tree)
+FIELDS = {"feature": "<i4", "threshold": "<f8", "nan_left": "u1", "left": "<i4", "right": "<i4", "leaf": "u1",
+          "value": "<f8"}
 
 
 def constraints_of(row: Mapping[str, Any]) -> Mapping[str, Any] | None:
@@ -42,7 +46,7 @@ def constraints_of(row: Mapping[str, Any]) -> Mapping[str, Any] | None:
 @dataclass
 class PlanModel:
     """P(success in simulation) from the judge's logit, the limits and environment (`names`), the
-    constraint set, the planner and the plan's samples; trees as arrays (`trees`, one dict each)."""
+    constraint set, the planner and the plan's samples; its trees' nodes as flat arrays (`nodes`)."""
 
     names: list[str]
     low: list[float]
@@ -51,7 +55,9 @@ class PlanModel:
     channels: list[str]
     samples: int  # knots per channel
     baseline: float  # the boosting's starting logit
-    trees: list[dict[str, list]]  # feature, threshold, nan_left, left, right, leaf, value
+    sizes: list[int]  # nodes per tree; the trees' nodes one after the other in `nodes`
+    depth: int  # the deepest leaf's depth + 1: walks enough to reach every leaf
+    nodes: dict[str, str]  # per field (FIELDS), the nodes' values as little-endian bytes in base64
     judge_sha256: str | None = None
     robot: str = DEFAULT_ROBOT
     n: int = 0
@@ -85,19 +91,16 @@ class PlanModel:
 
     @property
     def _arrays(self) -> dict[str, Any]:
-        """The trees as one set of flat arrays (children offset into them), made once per model."""
+        """The nodes as arrays, children offset to the whole (made once per model)."""
         cached = self.__dict__.get("_flat")
         if cached is not None:
             return cached
-        offsets = np.cumsum([0] + [len(t["leaf"]) for t in self.trees[:-1]])
-        flat = {k: np.concatenate([np.asarray(t[k]) for t in self.trees]) for k in
-                ("feature", "threshold", "nan_left", "left", "right", "leaf", "value")}
-        for k in ("left", "right"):
-            flat[k] = flat[k].astype(int) + np.repeat(offsets, [len(t["leaf"]) for t in self.trees])
-        flat["feature"] = flat["feature"].astype(int)
-        flat["leaf"], flat["nan_left"] = flat["leaf"].astype(bool), flat["nan_left"].astype(bool)
-        flat["threshold"], flat["value"] = flat["threshold"].astype(float), flat["value"].astype(float)
-        flat["root"], flat["depth"] = offsets, max(int(t["depth"]) for t in self.trees)
+        flat = {k: np.frombuffer(base64.b64decode(self.nodes[k]), dtype=t) for k, t in FIELDS.items()}
+        roots = np.cumsum([0] + self.sizes[:-1])
+        offset = np.repeat(roots, self.sizes)
+        flat = {**{k: v.astype(bool) for k, v in flat.items() if k in ("leaf", "nan_left")},
+                "feature": flat["feature"].astype(np.intp), "threshold": flat["threshold"], "value": flat["value"],
+                "left": flat["left"] + offset, "right": flat["right"] + offset, "root": roots, "depth": self.depth}
         self.__dict__["_flat"] = flat
         return flat
 
@@ -130,36 +133,36 @@ class PlanModel:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any], where: str) -> "PlanModel":
-        """The model as `to_dict` wrote it, checked: every tree's arrays of one length, children inside it."""
+        """The model as `to_dict` wrote it, checked: every field of every node there, children inside their tree."""
         try:
             m = cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
-            width = 1 + len(m.names) + len(RATES) + 1 + len(m.planners) + len(m.channels) * m.samples
-            for t in m.trees:
-                size = len(t["leaf"])
-                if any(len(t[k]) != size for k in ("feature", "threshold", "nan_left", "left", "right", "value")):
-                    raise ValueError("a tree's arrays differ in length")
-                inner = ~np.asarray(t["leaf"], bool)
-                kids = np.concatenate([np.asarray(t["left"])[inner], np.asarray(t["right"])[inner]])
-                if np.any(kids < 0) or np.any(kids >= size) or np.any(np.asarray(t["feature"])[inner] >= width):
-                    raise ValueError("a tree points outside itself or its features")
-            if not m.trees or len(m.low) != len(m.names) or len(m.high) != len(m.names):
+            total = sum(m.sizes)
+            if not m.sizes or min(m.sizes) < 1 or len(m.low) != len(m.names) or len(m.high) != len(m.names):
                 raise ValueError("no trees, or ranges of the wrong size")
-        except (KeyError, TypeError, ValueError) as exc:
+            raw = {k: np.frombuffer(base64.b64decode(m.nodes[k], validate=True), dtype=t) for k, t in FIELDS.items()}
+            if any(len(v) != total for v in raw.values()):
+                raise ValueError(f"the nodes' fields are not {total} long each")
+            width = 1 + len(m.names) + len(RATES) + 1 + len(m.planners) + len(m.channels) * m.samples
+            size = np.repeat(m.sizes, m.sizes)
+            inner = raw["leaf"] == 0
+            if any(np.any((raw[k][inner] < 0) | (raw[k][inner] >= size[inner])) for k in ("left", "right")) or np.any(
+                    (raw["feature"][inner] < 0) | (raw["feature"][inner] >= width)):
+                raise ValueError("a tree points outside itself or its features")
+        except (KeyError, TypeError, ValueError) as exc:  # binascii.Error is a ValueError
             raise CalibrationError(f"{where}: malformed plan model ({exc}); refit it with `judgeopt calibrate "
                                    "--plan-model FOLDER...`") from None
         return m
 
 
-def _exported(clf: Any) -> tuple[float, list[dict[str, list]]]:
-    """A fitted HistGradientBoostingClassifier's starting logit and trees as arrays (binary classes)."""
-    trees = []
-    for (predictor,) in clf._predictors:
-        nodes = predictor.nodes
-        trees.append({"feature": nodes["feature_idx"].tolist(), "threshold": nodes["num_threshold"].tolist(),
-                      "nan_left": nodes["missing_go_to_left"].astype(int).tolist(), "left": nodes["left"].tolist(),
-                      "right": nodes["right"].tolist(), "leaf": nodes["is_leaf"].astype(int).tolist(),
-                      "value": nodes["value"].tolist(), "depth": int(nodes["depth"].max()) + 1})
-    return float(np.ravel(clf._baseline_prediction)[0]), trees
+def _exported(clf: Any) -> tuple[float, list[int], int, dict[str, str]]:
+    """A fitted HistGradientBoostingClassifier's starting logit and trees (binary classes), as stored."""
+    trees = [predictor.nodes for (predictor,) in clf._predictors]
+    names = {"feature": "feature_idx", "threshold": "num_threshold", "nan_left": "missing_go_to_left",
+             "left": "left", "right": "right", "leaf": "is_leaf", "value": "value"}
+    nodes = {k: base64.b64encode(np.concatenate([t[names[k]] for t in trees]).astype(FIELDS[k]).tobytes()).decode()
+             for k in FIELDS}
+    depth = max(int(t["depth"].max()) for t in trees) + 1
+    return float(np.ravel(clf._baseline_prediction)[0]), [len(t) for t in trees], depth, nodes
 
 
 def fit_plan_model(rows: Sequence[Mapping[str, Any]], sources: Sequence[str] = (), seed: int = 0) -> PlanModel:
@@ -179,13 +182,13 @@ def fit_plan_model(rows: Sequence[Mapping[str, Any]], sources: Sequence[str] = (
         raise CalibrationError(f"the plans were judged by {len(judges)} judges; fit a plan model on one judge's")
     channels = list(first["channels"])
     model = PlanModel(names, values.min(0).tolist(), values.max(0).tolist(), sorted({r["method"] for r in rows}),
-                      channels, len(first[channels[0]]), 0.0, [], judges.pop(), first.get("robot", DEFAULT_ROBOT),
+                      channels, len(first[channels[0]]), 0.0, [], 0, {}, judges.pop(), first.get("robot", DEFAULT_ROBOT),
                       len(rows), sum(bool(r["simulated_success"]) for r in rows), sorted(set(sources)))
     y = np.array([bool(r["simulated_success"]) for r in rows])
     X = model.features(rows)
     X[:, np.isnan(X).all(axis=0)] = 0.0  # a rate no band drew: constant, so no tree splits on it
     clf = HistGradientBoostingClassifier(**BOOSTING, random_state=seed).fit(X, y)
-    model.baseline, model.trees = _exported(clf)
+    model.baseline, model.sizes, model.depth, model.nodes = _exported(clf)
     return model
 
 

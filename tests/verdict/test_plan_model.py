@@ -3,6 +3,7 @@ predictions, outcomes that depend on one sample of the plan only, folds whose ou
 
 from __future__ import annotations
 
+import base64
 import json
 
 import numpy as np
@@ -111,7 +112,9 @@ def test_a_calibration_file_keeps_the_model_and_refuses_a_broken_one(tmp_path, f
     again = plan_model_of(section, str(path))
     assert again.predict(again.features(rows[:20])).tolist() == model.predict(model.features(rows[:20])).tolist()
     broken = json.loads(path.read_text())
-    broken["plan_model"]["trees"][0]["left"][0] = 10 ** 6
+    left = np.frombuffer(base64.b64decode(broken["plan_model"]["nodes"]["left"]), "<i4").copy()
+    left[0] = model.sizes[0]  # the first tree's root's left child: one past its last node
+    broken["plan_model"]["nodes"]["left"] = base64.b64encode(left.tobytes()).decode()
     path.write_text(json.dumps(broken))
     with pytest.raises(CalibrationError, match="malformed plan model .*points outside.*--plan-model"):
         plan_model_of(load_calibration_document(path)[2], str(path))
