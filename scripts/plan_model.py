@@ -13,8 +13,9 @@ their limits; the default planners and with `held`).
 
     python scripts/plan_model.py out/band/fit_s101 out/band/fit_s808_constrained ... --heldout out/band/heldout_s202
 
-Not wired into `solve`: docs/verdict.md ("A model of the plans") says what it measured and what
-shipping it would take.
+The shipped form is `judgeopt calibrate --plan-model` (judgeopt.verdict.plan_model); this script is
+where a feature set is tried first (`--no-plan`: without the plan's samples). docs/verdict.md, "A model
+of the plans", has what both measured.
 """
 
 from __future__ import annotations
