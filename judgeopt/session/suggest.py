@@ -160,26 +160,52 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
             continue  # already at what the demonstrations reach
         try:
             p_bound, likely = _screen(planners, rx.name, rx.bound, env, guess)
+            lo, hi = current, rx.bound  # unlikely at lo, likely at hi
+            for edge in [] if likely else kind_edges(planners, rx, current):
+                if _screen(planners, rx.name, edge, env, guess)[1]:
+                    hi, likely = edge, True
+                    break
+                lo = edge
             if not likely:
                 continue
-            lo, hi = current, rx.bound  # unlikely at lo, likely at hi
+            anchor = hi  # where the screen first said likely
             while abs(hi - lo) > rx.resolution:
                 mid = 0.5 * (lo + hi)
                 if _screen(planners, rx.name, mid, env, guess)[1]:
                     hi = mid
                 else:
                     lo = mid
-            value = printable(hi, rx.direction, rx.bound)  # planned at the value the suggestion prints
             # a planner whose warm-start planner is asked for too starts from that one's new plan
             started = any(spec_of(m).warm_start in planners.methods for m in planners.methods)
-            relaxed = planners.with_limits(**{rx.name: value}).solve(env, guess=None if started else guess)
+            # planned at the value the suggestion prints; where every planner's plan there is not likely (the
+            # screen is the fastest planner's), at the plan model's range end beyond it, then at the value the
+            # screen first said likely
+            ends = [v for v in kind_edges(planners, rx, hi) if (anchor - v) * rx.direction > 0]
+            for value in dict.fromkeys(printable(v, rx.direction, rx.bound) for v in (hi, *ends, anchor)):
+                relaxed = planners.with_limits(**{rx.name: value}).solve(env, guess=None if started else guess)
+                top = recommended(relaxed)
+                if top is not None and top.verdict == "likely":
+                    found.append(Suggestion(rx.name, float(value), float(current), rx.unit, top, p_bound, rx.bound,
+                                            _binds(p, rx.name, guess)))
+                    break
         except ProblemError:  # the relaxed limits contradict another one
             continue
-        top = recommended(relaxed)
-        if top is not None and top.verdict == "likely":
-            found.append(Suggestion(rx.name, float(value), float(current), rx.unit, top, p_bound, rx.bound,
-                                    _binds(p, rx.name, guess)))
     return sorted(found, key=lambda s: s.relative_change)
+
+
+def kind_edges(planners: Planners, rx: Relaxation, current: float) -> list[float]:
+    """The ends of the plan model's range of this limit between `current` and the bound, nearest first.
+    Across one a plan's p changes kind (the plan model's, then a calibrator's with its own threshold), so
+    "likely" need not grow with the relaxation there: f_max 11 N at mu 3 was likely from 12 N, inside the
+    model's range (11-15.5 N), but not at the demonstrations' 30 N, and the search that screened 30 N
+    first found nothing."""
+    model = getattr(planners, "plan_model", None)  # a stand-in planner set may carry none
+    if model is None or rx.name not in model.names:
+        return []
+    i = model.names.index(rx.name)
+    ends = (model.low[i], model.high[i])
+    return sorted((v for v in ends if (v - current) * rx.direction > rx.resolution and (rx.bound - v) * rx.direction > 0),
+                  key=lambda v: (v - current) * rx.direction)
 
 
 def searched(problem: Problem) -> list[str]:

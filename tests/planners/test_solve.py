@@ -35,14 +35,14 @@ def test_planners_in_another_environment_plan_as_planners_loaded_for_it():
     from judgeopt.planners.problem import ProblemError
     from judgeopt.session.solve import solve
 
-    base = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=12)
+    base = load_problem(resolve("problems/paper_sim.toml")).with_overrides(f_max=11)
     loaded = Planners.load(base, ("amortized", "direct"))
     moved = base.with_overrides(y_obj=0.21, mu=2.9)
     reused, fresh = solve(loaded.in_environment(moved)), solve(Planners.load(moved, ("amortized", "direct")))
     assert reused.env == fresh.env == {"y_obj": 0.21, "mu": 2.9}
     for a, b in zip(reused.results, fresh.results, strict=True):
         assert np.array_equal(a.plan.values, b.plan.values) and a.predicted_success == b.predicted_success
-    assert fresh.suggestions, "f_max 12 at mu 2.9 should be unlikely, and a relaxation should be found"
+    assert fresh.suggestions, "f_max 11 at mu 2.9 should be unlikely, and a relaxation should be found"
     assert [(s.limit, s.value) for s in reused.suggestions] == [(s.limit, s.value) for s in fresh.suggestions]
     with pytest.raises(ProblemError, match="more than their environment"):
         loaded.in_environment(base.with_overrides(qdot_max=0.8))

@@ -147,8 +147,11 @@ def test_calibrate_fits_a_plan_model_on_band_folders_and_keeps_the_rest_of_the_f
     text = capsys.readouterr().out
     assert "direct: likely at p >= " in text and "a plan model fitted on 600 replayed plans of 2 folders" in text
     calibrators, evidence, section = load_calibration_document(out)
-    assert set(calibrators) == set(before) and all(evidence[k].to_dict() == e.to_dict() for k, e in before_evidence.items())
+    # the calibrators and every other kind's evidence kept; the old model's evidence goes with it
+    assert set(calibrators) == set(before)
+    assert all(evidence[k].to_dict() == e.to_dict() for k, e in before_evidence.items() if e.kind != "plans")
     assert {e.kind for e in evidence.values() if e.judge_sha256 == JUDGE} == {"plans"}
+    assert not any(e.kind == "plans" and e.judge_sha256 != JUDGE for e in evidence.values())
     assert plan_model_of(section, str(out)).n == 600
     assert main(["calibrate", "--plan-model", str(tmp_path / "a"), "--out", str(out)]) != 0
     assert "at least two band folders" in capsys.readouterr().err
@@ -180,3 +183,24 @@ def test_a_solve_reads_the_plan_model_of_its_calibration_file_where_it_covers_th
     assert kind_of(inside.info) == "plans"
     (beyond,) = Planners.load(problem.with_overrides(calibration=str(path), f_max=20.0), ("direct",)).solve(env)
     assert "calibrated_by" not in beyond.info
+
+
+def test_the_suggestion_search_screens_the_plan_model_s_range_ends_nearest_first(fitted):
+    """Across an end of the model's range a plan's p changes kind, so "likely" need not grow there: the
+    ends between the current value and the bound are screened, nearest first, in the relaxing direction."""
+    from types import SimpleNamespace
+
+    from judgeopt.session.suggest import Relaxation, kind_edges
+
+    model, _ = fitted
+    planners = SimpleNamespace(plan_model=model)
+    i = model.names.index("qdot_max")
+    lo, hi = model.low[i], model.high[i]
+    up = Relaxation("qdot_max", +1, 0.05, 1.5, "m/s")
+    assert kind_edges(planners, up, lo - 0.2) == [lo, hi]
+    assert kind_edges(planners, up, lo + 0.01) == [hi]  # lo lies behind the current value
+    assert kind_edges(planners, up, hi - 0.01) == []  # within the resolution
+    down = Relaxation("qdot_max", -1, 0.05, 0.0, "m/s")
+    assert kind_edges(planners, down, hi + 0.2) == [hi, lo]
+    assert kind_edges(planners, Relaxation("f_min", -1, 1.0, 0.0, "N"), 7.5) == []  # not an input of the model
+    assert kind_edges(SimpleNamespace(plan_model=None), up, 0.1) == []
