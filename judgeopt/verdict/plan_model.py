@@ -181,9 +181,17 @@ def fit_plan_model(rows: Sequence[Mapping[str, Any]], sources: Sequence[str] = (
     judges = {r.get("judge_sha256") for r in rows}
     if len(judges) > 1:
         raise CalibrationError(f"the plans were judged by {len(judges)} judges; fit a plan model on one judge's")
+    arms = {r.get("robot", DEFAULT_ROBOT) for r in rows}
+    if len(arms) > 1:
+        raise CalibrationError(f"the plans were replayed on {len(arms)} arms ({', '.join(sorted(arms))}); fit a plan "
+                               "model on one arm's")
     channels = list(first["channels"])
+    shapes = {(tuple(r["channels"]), *(len(r[c]) for c in r["channels"])) for r in rows}
+    if len(shapes) > 1:
+        raise CalibrationError(f"the plans have {len(shapes)} different sets of channels or horizons; fit a plan "
+                               "model on plans of one task and horizon")
     model = PlanModel(names, values.min(0).tolist(), values.max(0).tolist(), sorted({r["method"] for r in rows}),
-                      channels, len(first[channels[0]]), 0.0, [], 0, {}, judges.pop(), first.get("robot", DEFAULT_ROBOT),
+                      channels, len(first[channels[0]]), 0.0, [], 0, {}, judges.pop(), arms.pop(),
                       len(rows), sum(bool(r["simulated_success"]) for r in rows), sorted(set(sources)))
     y = np.array([bool(r["simulated_success"]) for r in rows])
     X = model.features(rows)

@@ -131,6 +131,14 @@ def test_too_few_plans_or_two_judges_are_refused():
     mixed[0]["judge_sha256"] = "d" * 64
     with pytest.raises(CalibrationError, match="2 judges"):
         fit_plan_model(mixed)
+    mixed = _band(200, 5)
+    mixed[0]["f"] = mixed[0]["f"][:-1]
+    with pytest.raises(CalibrationError, match="2 different sets of channels or horizons"):
+        fit_plan_model(mixed)
+    mixed = _band(200, 5)
+    mixed[0]["robot"] = "panda"
+    with pytest.raises(CalibrationError, match=r"2 arms \(panda, ur5\)"):
+        fit_plan_model(mixed)
 
 
 def test_calibrate_fits_a_plan_model_on_band_folders_and_keeps_the_rest_of_the_file(tmp_path, capsys):
@@ -204,3 +212,101 @@ def test_the_suggestion_search_screens_the_plan_model_s_range_ends_nearest_first
     assert kind_edges(planners, down, hi + 0.2) == [hi, lo]
     assert kind_edges(planners, Relaxation("f_min", -1, 1.0, 0.0, "N"), 7.5) == []  # not an input of the model
     assert kind_edges(SimpleNamespace(plan_model=None), up, 0.1) == []
+
+
+def test_features_are_the_judge_s_logit_the_inputs_the_set_the_planner_and_the_samples_in_that_order(fitted):
+    """Against a vector written out by hand: a judge's p of 0 or 1 is clipped to 1e-6 from the end."""
+    model, rows = fitted
+    row = {**rows[3], "method": "held", "predicted_success": 1.0,
+           "band_constraints": {"fdot_max": 60.0, "a_max": 2.5, "bounds": ["f:0:15.9@0:0.55"]}}
+    x = model.features([row])[0]
+    values = {"qdot_max": row["limits"]["qdot_max"], "f_max": 16.0, **row["environment"]}
+    expected = [np.log((1 - 1e-6) / 1e-6), *(values[k] for k in model.names), 2.5, np.nan, 60.0, 1.0,
+                *(float(m == "held") for m in model.planners), *row["y"], *row["ydot"], *row["f"]]
+    assert model.names == sorted(values) and model.planners == ["direct", "held"]
+    np.testing.assert_allclose(x, np.array(expected), rtol=1e-9)  # NaN where NaN
+    low = model.features([{**rows[3], "predicted_success": 0.0, "band_constraints": {}}])[0]
+    assert low[0] == pytest.approx(-np.log((1 - 1e-6) / 1e-6)) and np.isnan(low[5:8]).all() and low[8] == 0.0
+    assert model.features([{**rows[3], "predicted_success": 0.9}])[0][0] == pytest.approx(np.log(9.0))
+
+
+def test_a_fitted_model_records_what_it_was_fitted_on(fitted):
+    model, rows = fitted
+    assert (model.n, model.successes) == (600, sum(r["simulated_success"] for r in rows))
+    assert model.judge_sha256 == JUDGE and model.robot == "ur5" and model.samples == SAMPLES
+    assert model.channels == ["y", "ydot", "f"] and len(model.sizes) == BOOSTING["max_iter"]
+    i = model.names.index("qdot_max")
+    assert (model.low[i], model.high[i]) == (min(r["limits"]["qdot_max"] for r in rows),
+                                             max(r["limits"]["qdot_max"] for r in rows))
+    on_arm = fit_plan_model([{**r, "robot": "panda"} for r in _band(120, 8)], sources=["b", "a", "b"])
+    assert on_arm.robot == "panda" and on_arm.sources == ["a", "b"] and on_arm.n == 120
+    # rows without an outcome, a p, a plan or a stated constraint set are not fitted on
+    unusable = [{**r, "simulated_success": None} for r in rows[:5]] + [{**r, "predicted_success": None} for r in rows[5:10]]
+    unusable += [{k: v for k, v in r.items() if k != "band_constraints"} for r in rows[10:15]]
+    unusable += [{**r, "channels": []} for r in rows[15:20]]
+    assert fit_plan_model(unusable + rows[20:120]).n == 100
+    with pytest.raises(CalibrationError, match="99 replayed band plans are too few"):
+        fit_plan_model(unusable + rows[20:119])
+
+
+def test_coverage_ends_at_the_range_s_margin_and_at_any_other_constraint(fitted):
+    from judgeopt.verdict.plan_model import RANGE_MARGIN
+
+    model, rows = fitted
+    i = model.names.index("qdot_max")
+    lo, hi = model.low[i], model.high[i]
+    tol = 1e-9 + RANGE_MARGIN * (hi - lo)
+    at = lambda v: {**rows[0], "limits": {**rows[0]["limits"], "qdot_max": v}}  # noqa: E731
+    assert model.covers(at(lo - tol)) and model.covers(at(hi + tol))
+    assert not model.covers(at(lo - 1.001 * tol)) and not model.covers(at(hi + 1.001 * tol))
+    assert model.covers({k: v for k, v in rows[0].items() if k != "judge_sha256"})  # a row without its judge: the model's
+    assert not model.covers({**rows[0], "band_constraints": {"joint_limit_scale": 1}})
+    assert model.covers({**rows[0], "band_constraints": {"bounds": ["f:0:15.9@0:0.55"], "joint_limit_scale": 0}})
+    assert not model.covers({**rows[0], "limits": {"qdot_max": 0.5}})  # f_max, an input, not stated
+
+
+def test_out_of_fold_drops_what_an_earlier_model_wrote():
+    folds = {"a": _band(200, 3), "b": _band(200, 4)}
+    stale = {"calibrated_success": 0.5, "calibration_covers": True, "calibrated_by": "old"}
+    folds["a"][0].update(stale)
+    # beyond the range of the folder it is scored by a model of: not covered
+    folds["b"][0].update({**stale, "limits": {**folds["b"][0]["limits"], "qdot_max": 5.0}})
+    out_of_fold(folds)
+    assert folds["a"][0]["calibrated_by"] == PLAN_MODEL and folds["a"][0]["calibrated_success"] != 0.5
+    assert not {"calibrated_success", "calibration_covers", "calibrated_by"} & set(folds["b"][0])
+
+
+def test_a_stored_model_is_read_once_per_section_and_every_broken_field_is_refused(fitted, tmp_path):
+    model, rows = fitted
+    section = model.to_dict()
+    first = plan_model_of(section, "here")
+    assert plan_model_of(section, "here") is first and plan_model_of(dict(section), "here") is not first
+    assert plan_model_of(None, "here") is None
+
+    def broken(**change):
+        with pytest.raises(CalibrationError, match=r"^here: malformed plan model .*--plan-model FOLDER\.\.\.`$"):
+            PlanModel.from_dict({**section, **change}, "here")
+
+    nodes = section["nodes"]
+
+    def field(name, index, value):
+        a = np.frombuffer(base64.b64decode(nodes[name]), FIELDS[name]).copy()
+        a[index] = value
+        return {**nodes, name: base64.b64encode(a.tobytes()).decode()}
+
+    from judgeopt.verdict.plan_model import FIELDS
+
+    broken(sizes=[])
+    broken(sizes=[0, *section["sizes"][1:]])
+    broken(low=section["low"][:-1])
+    broken(high=section["high"][:-1])
+    broken(nodes={**nodes, "left": nodes["left"][:-8]})
+    broken(nodes={**nodes, "value": "not base64!"})
+    broken(nodes=field("left", 0, -1))
+    broken(nodes=field("right", 0, section["sizes"][0]))
+    broken(nodes=field("feature", 0, -1))
+    width = 1 + len(model.names) + 3 + 1 + len(model.planners) + 3 * SAMPLES
+    broken(nodes=field("feature", 0, width))
+    PlanModel.from_dict({**section, "nodes": field("feature", 0, width - 1)}, "here")  # the last feature is one
+    PlanModel.from_dict({**section, "nodes": field("left", 0, section["sizes"][0] - 1)}, "here")  # the last node too
+    broken(names=None)
