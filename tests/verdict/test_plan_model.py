@@ -11,7 +11,7 @@ import pytest
 
 from judgeopt.verdict.calibration import CalibrationError, load_calibration_document, save_calibration
 from judgeopt.verdict.plan_model import (BOOSTING, PlanModel, constraints_of, fit_plan_model, out_of_fold,
-                                         plan_model_of)
+                                         plan_model_of, plan_row)
 from judgeopt.verdict.risk import PLAN_MODEL, fit_evidence, kind_of
 
 SAMPLES = 31
@@ -310,3 +310,36 @@ def test_a_stored_model_is_read_once_per_section_and_every_broken_field_is_refus
     PlanModel.from_dict({**section, "nodes": field("feature", 0, width - 1)}, "here")  # the last feature is one
     PlanModel.from_dict({**section, "nodes": field("left", 0, section["sizes"][0] - 1)}, "here")  # the last node too
     broken(names=None)
+
+
+def test_a_missing_rate_goes_where_scikit_learn_sends_it():
+    """Outcomes that depend only on whether a force-rate limit was drawn: the trees split on a value that is
+    missing (NaN) in half the plans, and the walk must route those plans as scikit-learn does."""
+    from sklearn.ensemble import HistGradientBoostingClassifier
+
+    rows = _band(400, 9)
+    for i, r in enumerate(rows):
+        r["band_constraints"] = {"fdot_max": 40.0 + i % 7} if i % 2 else {}
+        r["simulated_success"] = bool(i % 2)
+    model = fit_plan_model(rows)
+    X = model.features(rows)
+    X[:, np.isnan(X).all(axis=0)] = 0.0
+    clf = HistGradientBoostingClassifier(**BOOSTING, random_state=0).fit(X, [r["simulated_success"] for r in rows])
+    assert np.abs(model.predict(X) - clf.predict_proba(X)[:, 1]).max() < 1e-12
+    assert ((model.predict(model.features(rows)) > 0.5) == np.array([r["simulated_success"] for r in rows])).all()
+
+
+def test_a_live_plan_is_read_as_its_stored_row_would_be(fitted):
+    """plan_row: the live plan's judge, set and samples, so another judge's plan or another arm is not covered."""
+    from types import SimpleNamespace
+
+    model, rows = fitted
+    row = rows[0]
+    plan = SimpleNamespace(channels=[SimpleNamespace(name=c) for c in row["channels"]],
+                           values=np.column_stack([row[c] for c in row["channels"]]))
+    live = plan_row(row["method"], row["environment"], row["limits"], row["predicted_success"], JUDGE, plan,
+                    {"fdot_max": None, "bounds": []})
+    assert model.annotate(live)["calibrated_success"] == pytest.approx(
+        float(model.predict(model.features([{**row, "band_constraints": {}}]))[0]), abs=1e-12)
+    other = plan_row(row["method"], row["environment"], row["limits"], row["predicted_success"], "d" * 64, plan, {})
+    assert model.annotate(other) == {} and model.annotate(live, robot="panda") == {}
