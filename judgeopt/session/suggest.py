@@ -196,7 +196,7 @@ def suggest(planners: Planners, env: dict[str, float], results: list[PlanResult]
 def kind_edges(planners: Planners, rx: Relaxation, current: float) -> list[float]:
     """The ends of the plan model's range of this limit between `current` and the bound, nearest first.
     Across one a plan's p changes kind (the plan model's, then a calibrator's with its own threshold), so
-    "likely" need not grow with the relaxation there: f_max 11 N at mu 3 was likely from 12 N, inside the
+    "likely" need not grow with the relaxation there: a force limit of 11 N was likely from 12 N, inside the
     model's range (11-15.5 N), but not at the demonstrations' 30 N, and the search that screened 30 N
     first found nothing."""
     model = getattr(planners, "plan_model", None)  # a stand-in planner set may carry none
