@@ -27,23 +27,18 @@ import numpy as np
 
 from judgeopt.evaluate.stored import StoredRowsError, read_rows
 from judgeopt.verdict.calibration import inputs
+from judgeopt.verdict.plan_model import PlanModel
 from judgeopt.verdict.risk import GRID, HOLD_TOL, RISK, upper_bound
 
 PLANNERS = ("amortized", "direct", "held")
-CONSTRAINTS = ("a_max", "jerk_max", "fdot_max")  # a band's constraint set, as numbers (NaN: not drawn)
 
 
-def features(r: dict, names: list[str], plan: bool = True) -> list[float]:
-    """One plan as the model reads it; `names`: the limits and environment variables, in order."""
-    p = float(np.clip(r["predicted_success"], 1e-6, 1 - 1e-6))
-    values = inputs(r.get("limits", {}), r["environment"])
-    drawn = r.get("band_constraints") or {}
-    out = [np.log(p / (1 - p)), *(values.get(k, np.nan) for k in names),
-           *(float(drawn.get(k, np.nan)) for k in CONSTRAINTS), float(bool(drawn.get("bounds"))),
-           *(float(r["method"] == m) for m in PLANNERS)]
-    if plan:
-        out += [v for c in r["channels"] for v in np.asarray(r[c], float).ravel()]
-    return out
+def features(rows: list[dict], names: list[str], plan: bool = True) -> np.ndarray:
+    """The plans as judgeopt's plan model reads them (PlanModel.features); `names`: the limits and
+    environment variables, in order; without the plan's samples where not `plan`."""
+    channels = list(rows[0]["channels"]) if plan else []
+    return PlanModel(names, [], [], list(PLANNERS), channels, 0, 0.0, [], 0, {}).features(
+        [{**r, "band_constraints": r.get("band_constraints") or {}} for r in rows])
 
 
 def holds(r: dict) -> bool:
@@ -84,13 +79,13 @@ def main() -> None:
     names = sorted({k for rs in folds.values() for r in rs for k in inputs(r.get("limits", {}), r["environment"])})
 
     def fitted(rows: list[dict]):
-        X = np.array([features(r, names, not args.no_plan) for r in rows])
+        X = features(rows, names, not args.no_plan)
         y = np.array([bool(r["simulated_success"]) for r in rows])
         return HistGradientBoostingClassifier(max_iter=args.trees, learning_rate=0.05, early_stopping=False,
                                               random_state=0).fit(X, y)
 
     def score(model, rows: list[dict]) -> None:
-        p = model.predict_proba(np.array([features(r, names, not args.no_plan) for r in rows]))[:, 1]
+        p = model.predict_proba(features(rows, names, not args.no_plan))[:, 1]
         for r, v in zip(rows, p):
             r["_p"] = float(v)
 

@@ -472,11 +472,9 @@ class Planners:
         if cal is not None and r.predicted_success is not None:
             r.info.update(cal.annotate(calibration_inputs(limits, env), r.predicted_success))
         if self.plan_model is not None and r.plan is not None and r.predicted_success is not None:
-            from judgeopt.verdict.plan_model import plan_row
-
-            r.info.update(self.plan_model.annotate(plan_row(
-                r.method, env, limits, r.predicted_success, self.judge_meta["weights_sha256"], r.plan,
-                dataclasses.asdict(self.problem.constraints)), self.problem.robot))
+            # the plan as a stored row reads (its limits and judge in its info, above), with its constraint set
+            row = {**r.to_json(), "constraints": dataclasses.asdict(self.problem.constraints)}
+            r.info.update(self.plan_model.annotate(row, self.problem.robot))
         outside = outside_data(self.judge_meta, env, limits)
         if outside:
             r.info["outside_judge_data"] = outside

@@ -29,13 +29,11 @@ from judgeopt.errors import BadInput
 from judgeopt.files import atomic_write
 from judgeopt.formats.header import check_header, header
 from judgeopt.robots import DEFAULT_ROBOT
-from judgeopt.verdict.risk import Evidence
+from judgeopt.verdict.risk import RANGE_MARGIN, Evidence  # a fitted range's margin, as the evidence's
 
 FORMAT, VERSION = "judgeopt-calibration", 2
 LOGIT_CLIP = 12.0  # a judge saturates; beyond this its logit says nothing more
 L2_GRID = (0.03, 0.1, 0.3, 1.0, 3.0, 10.0, 30.0, 100.0, 1000.0)
-#: a value further than this share of a fitted range's width beyond it is not covered
-RANGE_MARGIN = 0.02
 #: coverage in the joint space of inputs and judge logit: a request is covered when its
 #: NEIGHBOURS-th nearest fitted outcome is no further than that of COVER_QUANTILE of the fitted ones
 NEIGHBOURS = 5

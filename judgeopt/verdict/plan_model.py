@@ -24,14 +24,12 @@ import numpy as np
 
 from judgeopt.robots import DEFAULT_ROBOT
 from judgeopt.verdict.calibration import CalibrationError, inputs
-from judgeopt.verdict.risk import PLAN_MODEL
+from judgeopt.verdict.risk import PLAN_MODEL, RANGE_MARGIN
 
 #: a constraint set's rate limits, as the model reads them (NaN: not set)
 RATES = ("a_max", "jerk_max", "fdot_max")
 #: the boosting's settings (scikit-learn's names); deterministic: no early stopping, no subsampling
 BOOSTING = {"max_iter": 300, "learning_rate": 0.05, "max_leaf_nodes": 31, "early_stopping": False}
-#: a value further than this share of a fitted range's width beyond it is not covered
-RANGE_MARGIN = 0.02
 #: each node's fields and how they are stored (children are indices inside their own tree)
 FIELDS = {"feature": "<i4", "threshold": "<f8", "nan_left": "u1", "left": "<i4", "right": "<i4", "leaf": "u1",
           "value": "<f8"}
@@ -228,11 +226,3 @@ def plan_model_of(section: dict | None, where: str) -> PlanModel | None:
         _MODELS[id(section)] = kept = (section, PlanModel.from_dict(section, where))
     return kept[1]
 
-
-def plan_row(method: str, env: Mapping[str, float], limits: Mapping[str, Any], predicted: float,
-             judge_sha256: str | None, plan: Any, constraints: Mapping[str, Any]) -> dict[str, Any]:
-    """A live plan as the model reads a stored row (PlanResult.to_json's keys)."""
-    return {"method": method, "environment": dict(env), "limits": dict(limits), "predicted_success": predicted,
-            "judge_sha256": judge_sha256, "constraints": dict(constraints),
-            "channels": [c.name for c in plan.channels],
-            **{c.name: plan.values[:, j] for j, c in enumerate(plan.channels)}}

@@ -35,7 +35,7 @@ RISK = 0.02
 CONFIDENCE = 0.95
 #: the thresholds a risk may select (fixed, so the choice cannot be tuned to single outcomes)
 GRID = (0.5, 0.6, 0.7, 0.8, 0.9, 0.95, 0.97, 0.98, 0.99, 0.995, 0.999)
-#: a value further than this share of a range's width beyond it lies outside the evidence
+#: a value further than this share of a range's width beyond it lies outside it (the evidence's, a fit's)
 RANGE_MARGIN = 0.02
 #: below this judge p a calibrated p above it is a raise the evidence must back (the verdict's "likely" line)
 RAISE_FROM = 0.5

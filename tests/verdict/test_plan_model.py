@@ -11,7 +11,7 @@ import pytest
 
 from judgeopt.verdict.calibration import CalibrationError, load_calibration_document, save_calibration
 from judgeopt.verdict.plan_model import (BOOSTING, PlanModel, constraints_of, fit_plan_model, out_of_fold,
-                                         plan_model_of, plan_row)
+                                         plan_model_of)
 from judgeopt.verdict.risk import PLAN_MODEL, fit_evidence, kind_of
 
 SAMPLES = 31
@@ -330,16 +330,22 @@ def test_a_missing_rate_goes_where_scikit_learn_sends_it():
 
 
 def test_a_live_plan_is_read_as_its_stored_row_would_be(fitted):
-    """plan_row: the live plan's judge, set and samples, so another judge's plan or another arm is not covered."""
-    from types import SimpleNamespace
+    """A result's row (PlanResult.to_json: its judge and limits in its info) with its problem's constraint
+    set, as Planners annotates it: another judge's plan or another arm is not covered."""
+    from judgeopt.planners.result import PlanResult
+    from judgeopt.tasks import get_task
+    from judgeopt.trajectory import Plan
 
     model, rows = fitted
     row = rows[0]
-    plan = SimpleNamespace(channels=[SimpleNamespace(name=c) for c in row["channels"]],
-                           values=np.column_stack([row[c] for c in row["channels"]]))
-    live = plan_row(row["method"], row["environment"], row["limits"], row["predicted_success"], JUDGE, plan,
-                    {"fdot_max": None, "bounds": []})
-    assert model.annotate(live)["calibrated_success"] == pytest.approx(
+    channels = {c.name: c for c in get_task("scoop").channels}
+    plan = Plan.from_columns(0.05, tuple(channels[c] for c in row["channels"]), *(row[c] for c in row["channels"]))
+
+    def live(judge):
+        result = PlanResult(row["method"], row["environment"], plan, row["predicted_success"], "solved", 0.0,
+                            info={"limits": row["limits"], "judge_sha256": judge})
+        return {**result.to_json(), "constraints": {"fdot_max": None, "bounds": []}}
+
+    assert model.annotate(live(JUDGE))["calibrated_success"] == pytest.approx(
         float(model.predict(model.features([{**row, "band_constraints": {}}]))[0]), abs=1e-12)
-    other = plan_row(row["method"], row["environment"], row["limits"], row["predicted_success"], "d" * 64, plan, {})
-    assert model.annotate(other) == {} and model.annotate(live, robot="panda") == {}
+    assert model.annotate(live("d" * 64)) == {} and model.annotate(live(JUDGE), robot="panda") == {}
